@@ -1,0 +1,93 @@
+// Broad phase: a dynamic AABB tree (Presson's / Box2D's design) over fattened boxes with incremental
+// updates. A proxy is re-inserted only when its tight box leaves its fat box, so resting and slowly
+// moving bodies cost nothing per step. Insertion picks the sibling by the surface-area heuristic and
+// rebalances with tree rotations.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "engine/core/aabb.hpp"
+
+namespace sinew {
+
+class DynamicTree {
+public:
+    static constexpr std::int32_t kNull = -1;
+
+    /// Inserts a proxy with tight box `box`, stored fattened by `margin`. Returns the proxy id.
+    std::int32_t create(const Aabb& box, std::uint32_t user_data, Real margin);
+    void destroy(std::int32_t proxy);
+    /// Updates a proxy's tight box. Re-inserts (and returns true) only when it escaped its fat box; the
+    /// new fat box is extended by `displacement` (predicted motion) as well as `margin`.
+    bool move(std::int32_t proxy, const Aabb& box, const Vec3& displacement, Real margin);
+
+    const Aabb& fat_box(std::int32_t proxy) const { return nodes_[proxy].box; }
+    std::uint32_t user_data(std::int32_t proxy) const { return nodes_[proxy].user_data; }
+
+    /// Calls f(proxy) for every proxy whose fat box overlaps `box`; f returns false to stop early.
+    template <class F>
+    void query(const Aabb& box, F&& f) const;
+
+    /// Every overlapping pair of proxies (fat boxes), each once, with a < b by proxy id. Appends to out.
+    void all_pairs(std::vector<std::pair<std::int32_t, std::int32_t>>& out) const;
+
+    int height() const;
+    int proxy_count() const { return proxy_count_; }
+    /// Checks parent links, heights and box containment; for tests.
+    bool validate() const;
+
+private:
+    struct Node {
+        Aabb box;
+        std::uint32_t user_data = 0;
+        std::int32_t parent = kNull;  ///< or next free node
+        std::int32_t child1 = kNull;
+        std::int32_t child2 = kNull;
+        std::int32_t height = -1;     ///< leaf = 0, free = -1
+        bool is_leaf() const { return child1 == kNull; }
+    };
+    std::int32_t allocate();
+    void release(std::int32_t node);
+    void insert_leaf(std::int32_t leaf);
+    void remove_leaf(std::int32_t leaf);
+    std::int32_t balance(std::int32_t node);
+
+    std::vector<Node> nodes_;
+    std::int32_t root_ = kNull;
+    std::int32_t free_list_ = kNull;
+    int proxy_count_ = 0;
+};
+
+template <class F>
+void DynamicTree::query(const Aabb& box, F&& f) const {
+    if (root_ == kNull) return;
+    std::int32_t stack_fixed[128];
+    std::vector<std::int32_t> stack_big;
+    int top = 0;
+    stack_fixed[top++] = root_;
+    while (top > 0) {
+        std::int32_t id = stack_fixed[--top];
+        const Node& n = nodes_[id];
+        if (!n.box.overlaps(box)) continue;
+        if (n.is_leaf()) {
+            if (!f(id)) return;
+        } else {
+            // A balanced tree of a million proxies is ~40 deep; 128 slots never overflow in practice,
+            // but stay correct if they would.
+            if (top + 2 > 128) {
+                stack_big.push_back(n.child1);
+                stack_big.push_back(n.child2);
+            } else {
+                stack_fixed[top++] = n.child1;
+                stack_fixed[top++] = n.child2;
+            }
+        }
+        if (top == 0 && !stack_big.empty()) {
+            stack_fixed[top++] = stack_big.back();
+            stack_big.pop_back();
+        }
+    }
+}
+
+}  // namespace sinew
