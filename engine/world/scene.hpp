@@ -1,0 +1,85 @@
+// Scene files: a JSON description of a world (settings, materials, shapes, bodies, generators) shared by
+// the `sinew` tool, the demos, the benchmarks and the tests, so every tool runs the same cases (Box2D v3
+// keeps one set of benchmark scenes for the same reason). The format is documented in
+// docs/scene-format.md.
+//
+// Loading is two steps. parse_scene_*() reads and validates the whole file into a SceneDesc, plain data
+// with no world attached: every error (malformed JSON, wrong type, unknown key, bad value, unknown name,
+// degenerate shape) is found there, before any body exists, so a bad file never leaves a half-loaded
+// world. build_world() then turns a SceneDesc into a World. Other engines (the benchmark's Bullet) can
+// build the same scene from the same SceneDesc.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "engine/world/world.hpp"
+
+namespace sinew {
+
+/// A problem in a scene file. what() reads "FILE: /bodies/3/mass: mass must be > 0, got -1" (the
+/// pointer part is left out when the problem concerns the whole file, e.g. malformed JSON).
+struct SceneError : std::runtime_error {
+    SceneError(std::string file, std::string json_path, std::string problem);
+    std::string file;       ///< the scene file, or the origin name given to parse_scene_string()
+    std::string json_path;  ///< RFC 6901 JSON pointer to the offending value ("" = the whole document)
+    std::string problem;    ///< what is wrong, naming the value
+};
+
+/// One body of a scene, fully resolved: named shapes and materials are substituted, generators expanded.
+struct SceneBody {
+    std::string name;       ///< unique within the scene
+    std::string json_path;  ///< where it was defined ("/bodies/4" or "/generators/0"), for later errors
+    BodyDef def;
+};
+
+/// A parsed and validated scene.
+struct SceneDesc {
+    std::string file;         ///< where it came from (path or origin name)
+    std::string name;         ///< "name" key, or the file name without extension
+    std::string description;
+    WorldSettings settings;
+    int steps = 600;          ///< default step count for `sinew run`
+    std::vector<SceneBody> bodies;  ///< "bodies" in file order, then each generator's bodies in order
+};
+
+constexpr const char* kSceneFormat = "sinew-scene";  ///< value of the "format" key
+constexpr int kSceneVersion = 1;                     ///< highest "version" this build reads
+
+/// Reads and validates a scene file. Throws SceneError (also for a missing or unreadable file).
+SceneDesc parse_scene_file(const std::string& path);
+/// Same, from text. Relative paths inside (OBJ meshes) are resolved against origin_name's directory.
+SceneDesc parse_scene_string(const std::string& text, const std::string& origin_name);
+
+/// Creates a world with the scene's settings and bodies. Bodies are created in SceneDesc order; if `ids`
+/// is given it receives their ids in that order. Throws SceneError (naming the body's json_path) if the
+/// rigid system rejects a body; the partly built world is then discarded.
+std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* ids = nullptr);
+
+// ---- building blocks, public so other engines and tests place bodies identically -------------------
+
+/// Centres of the boxes of a pyramid of `rows` rows (issue 3's pyramid-R): row r (0 = bottom) holds
+/// rows - r boxes centred on x = base.x with horizontal pitch `spacing`, at rest height
+/// y = base.y + half + r * 2 * half (faces touching), in the plane z = base.z. Bottom row first, each row
+/// from -x to +x. `base` is the centre of the bottom row's bottom face.
+std::vector<Vec3> pyramid_box_centres(int rows, Real half_extent, Real spacing, const Vec3& base);
+/// Centres of a column of `height` boxes standing on `base` (issue 3's tower-H), bottom first.
+std::vector<Vec3> tower_box_centres(int height, Real half_extent, const Vec3& base);
+
+/// Rotation from XYZ Euler angles in degrees: about x by rx, then about the fixed y by ry, then about
+/// the fixed z by rz (R = Rz * Ry * Rx).
+Quat quat_from_euler_xyz_deg(const Vec3& degrees);
+
+/// A triangle mesh read from a Wavefront OBJ file: `v` and `f` lines only (polygons are fanned into
+/// triangles, `v/vt/vn` and negative indices are understood, everything else is ignored).
+struct ObjMesh {
+    std::vector<Vec3> vertices;
+    std::vector<std::uint32_t> indices;  ///< 3 per triangle
+};
+/// Throws std::runtime_error "PATH:LINE: problem" for a missing file or a bad line.
+ObjMesh read_obj_file(const std::string& path);
+
+}  // namespace sinew

@@ -1,0 +1,56 @@
+#include "engine/world/world.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace sinew {
+
+namespace {
+void check_time_step(Real h) {
+    if (!is_finite(h) || h <= 0 || h > 1)
+        throw std::invalid_argument("time_step must be finite and in (0, 1] s, got " + std::to_string(h));
+}
+}  // namespace
+
+World::World(const WorldSettings& settings) : settings_(settings) {
+    check_time_step(settings.time_step);
+    if (settings.max_steps_per_frame < 1)
+        throw std::invalid_argument("max_steps_per_frame must be >= 1, got " +
+                                    std::to_string(settings.max_steps_per_frame));
+    rigid_ = std::make_unique<RigidSystem>(settings.rigid);
+    pipeline_.add_system(rigid_.get());
+}
+
+World::~World() = default;
+
+void World::set_time_step(Real h) {
+    check_time_step(h);
+    settings_.time_step = h;
+}
+
+void World::step() {
+    struct Guard {
+        bool& flag;
+        explicit Guard(bool& f) : flag(f) { flag = true; }
+        ~Guard() { flag = false; }
+    } guard(in_step_);
+    pipeline_.step(settings_.time_step);
+    time_ += settings_.time_step;
+}
+
+int World::advance(Real frame_dt) {
+    if (!is_finite(frame_dt) || frame_dt < 0)
+        throw std::invalid_argument("frame_dt must be finite and >= 0, got " + std::to_string(frame_dt));
+    accumulator_ += frame_dt;
+    int steps = 0;
+    while (accumulator_ >= settings_.time_step && steps < settings_.max_steps_per_frame) {
+        step();
+        accumulator_ -= settings_.time_step;
+        ++steps;
+    }
+    // Spiral-of-death guard: time we could not simulate is dropped, keeping less than one step.
+    if (accumulator_ >= settings_.time_step) accumulator_ = std::fmod(accumulator_, settings_.time_step);
+    return steps;
+}
+
+}  // namespace sinew

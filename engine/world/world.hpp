@@ -1,0 +1,54 @@
+// The World composes the systems (rigid now; soft bodies and coupling layers register the same way) and
+// steps them through the pipeline with a fixed internal step and an accumulator for variable frame times.
+#pragma once
+
+#include <memory>
+
+#include "engine/core/pipeline.hpp"
+#include "rigid/rigid_system.hpp"
+
+namespace sinew {
+
+struct WorldSettings {
+    Real time_step = Real(1) / 60;   ///< fixed internal step h (s)
+    int max_steps_per_frame = 8;     ///< accumulator cap, so a slow frame cannot spiral
+    RigidSettings rigid;
+};
+
+class World {
+public:
+    explicit World(const WorldSettings& settings = {});
+    ~World();
+    World(const World&) = delete;
+    World& operator=(const World&) = delete;
+
+    RigidSystem& rigid() { return *rigid_; }
+    const RigidSystem& rigid() const { return *rigid_; }
+    Pipeline& pipeline() { return pipeline_; }
+    const Pipeline& pipeline() const { return pipeline_; }
+    const WorldSettings& settings() const { return settings_; }
+    /// Validates (throws std::invalid_argument naming the field) and applies.
+    void set_time_step(Real h);
+
+    /// One fixed step of h.
+    void step();
+    /// Game-loop stepping: adds frame_dt to the accumulator and runs whole fixed steps (at most
+    /// max_steps_per_frame; excess time is dropped). Returns the number of steps taken.
+    int advance(Real frame_dt);
+    /// Fraction of a step left in the accumulator, in [0, 1): render at lerp(previous, current, alpha).
+    Real interpolation_alpha() const { return accumulator_ / settings_.time_step; }
+    double time() const { return time_; }
+    std::uint64_t step_count() const { return pipeline_.step_count(); }
+    /// True while a step is running (hooks run then); the C API rejects mutations during a step.
+    bool in_step() const { return in_step_; }
+
+private:
+    WorldSettings settings_;
+    Pipeline pipeline_;
+    std::unique_ptr<RigidSystem> rigid_;
+    Real accumulator_ = 0;
+    double time_ = 0;
+    bool in_step_ = false;
+};
+
+}  // namespace sinew

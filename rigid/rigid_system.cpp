@@ -1,0 +1,534 @@
+#include "rigid/rigid_system.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+#include "engine/core/mass_properties.hpp"
+#include "rigid/rigid_solver.hpp"
+
+namespace sinew {
+
+namespace {
+std::string fmt(Real x) {
+    std::ostringstream s;
+    s << x;
+    return s.str();
+}
+std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; }
+bool manifold_less(const ContactManifold& x, const ContactManifold& y) {
+    std::uint64_t kx = pair_key(x.body_a, x.body_b), ky = pair_key(y.body_a, y.body_b);
+    return kx != ky ? kx < ky : x.manifold.sub_key < y.manifold.sub_key;
+}
+}  // namespace
+
+const char* body_type_name(BodyType t) {
+    switch (t) {
+        case BodyType::Static: return "static";
+        case BodyType::Kinematic: return "kinematic";
+        case BodyType::Dynamic: return "dynamic";
+    }
+    return "unknown";
+}
+
+const char* solver_kind_name(RigidSolverKind k) {
+    return k == RigidSolverKind::Newton ? "newton" : "sequential_impulse";
+}
+
+const char* position_correction_name(PositionCorrection c) {
+    return c == PositionCorrection::Baumgarte ? "baumgarte" : "split_impulse";
+}
+
+RigidSystem::RigidSystem(const RigidSettings& settings) {
+    set_settings(settings);
+}
+
+RigidSystem::~RigidSystem() = default;
+
+void RigidSystem::set_settings(const RigidSettings& s) {
+    auto bad = [](const std::string& field, const std::string& why) {
+        throw RigidError("rigid settings: " + field + " " + why);
+    };
+    if (!is_finite(s.gravity)) bad("gravity", "must be finite");
+    if (s.velocity_iterations < 1 || s.velocity_iterations > 1000)
+        bad("velocity_iterations", "must be in [1, 1000], got " + std::to_string(s.velocity_iterations));
+    if (!(s.baumgarte >= 0 && s.baumgarte <= 1)) bad("baumgarte", "must be in [0, 1], got " + fmt(s.baumgarte));
+    if (!(s.linear_slop >= 0 && s.linear_slop < 1)) bad("linear_slop", "must be in [0, 1) m, got " + fmt(s.linear_slop));
+    if (!(s.restitution_threshold >= 0) || !is_finite(s.restitution_threshold))
+        bad("restitution_threshold", "must be finite and >= 0, got " + fmt(s.restitution_threshold));
+    if (!(s.contact_margin > 0 && s.contact_margin < 1))
+        bad("contact_margin", "must be in (0, 1) m, got " + fmt(s.contact_margin));
+    if (!(s.max_correction_velocity > 0) || !is_finite(s.max_correction_velocity))
+        bad("max_correction_velocity", "must be finite and > 0, got " + fmt(s.max_correction_velocity));
+    if (!(s.sleep_linear_velocity >= 0) || !(s.sleep_angular_velocity >= 0) || !(s.sleep_time >= 0) ||
+        !is_finite(s.sleep_time))
+        bad("sleep thresholds", "must be finite and >= 0");
+    if (s.newton_collision_iterations < 0 || s.newton_contact_iterations < 1)
+        bad("newton iterations", "must be >= 0 (collision) and >= 1 (contact)");
+    if (!(s.newton_projection_fraction >= 0 && s.newton_projection_fraction <= 1))
+        bad("newton projection_fraction", "must be in [0, 1], got " + fmt(s.newton_projection_fraction));
+    if (!solver_ || s.solver != settings_.solver)
+        solver_ = s.solver == RigidSolverKind::Newton ? make_newton_impulse_solver() : make_sequential_impulse_solver();
+    settings_ = s;
+}
+
+// ---- bodies ---------------------------------------------------------------------------------------
+
+BodyId RigidSystem::create_body(const BodyDef& def) {
+    // Validate everything before touching any array, so a bad definition changes nothing.
+    auto bad = [](const std::string& why) { throw RigidError("body definition: " + why); };
+    if (!is_finite(def.pose.p)) bad("position must be finite");
+    if (!is_finite(def.pose.q) || def.pose.q.norm() < Real(1e-6)) bad("rotation must be a finite non-zero quaternion");
+    if (!is_finite(def.linear_velocity) || !is_finite(def.angular_velocity)) bad("velocities must be finite");
+    if (!is_finite(def.mass) || def.mass < 0) bad("mass must be finite and >= 0 (0 = from density), got " + fmt(def.mass));
+    const Material& m = def.material;
+    if (!is_finite(m.friction) || m.friction < 0) bad("friction must be finite and >= 0, got " + fmt(m.friction));
+    if (!(m.restitution >= 0 && m.restitution <= 1)) bad("restitution must be in [0, 1], got " + fmt(m.restitution));
+    if (!is_finite(def.linear_damping) || def.linear_damping < 0 || !is_finite(def.angular_damping) ||
+        def.angular_damping < 0)
+        bad("damping must be finite and >= 0");
+    if (!is_finite(def.gravity_scale)) bad("gravity_scale must be finite");
+    if (def.type != BodyType::Static && !def.shape.can_be_dynamic())
+        bad(std::string("a ") + shape_type_name(def.shape.type) + " can only belong to a static body");
+
+    Transform pose{def.pose.p, def.pose.q.normalized()};
+    MassProperties mp;
+    if (def.type == BodyType::Dynamic) {
+        try {
+            mp = def.mass > 0 ? mass_properties_for_mass(def.shape, def.mass)
+                              : compute_mass_properties(def.shape, m.density);
+        } catch (const ShapeError& e) {
+            bad(e.what());
+        }
+        if (!(mp.mass > 0) || !is_finite(mp.mass)) bad("mass must be > 0, got " + fmt(mp.mass));
+    }
+    Aabb box = def.shape.bounds(pose);
+    if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");
+
+    std::uint32_t slot;
+    if (!free_slots_.empty()) {
+        slot = free_slots_.back();
+        free_slots_.pop_back();
+    } else {
+        slot = static_cast<std::uint32_t>(generation_.size());
+        generation_.push_back(0);
+        alive_.push_back(false);
+        type_.emplace_back();
+        shape_.emplace_back();
+        material_.emplace_back();
+        mass_.push_back(0);
+        body_inv_mass_.push_back(0);
+        inv_inertia_local_.emplace_back();
+        local_com_.emplace_back();
+        linear_damping_.push_back(0);
+        angular_damping_.push_back(0);
+        gravity_scale_.push_back(1);
+        allow_sleep_.push_back(true);
+        awake_.push_back(true);
+        sleep_timer_.push_back(0);
+        user_data_.push_back(0);
+        proxy_.push_back(DynamicTree::kNull);
+        island_.push_back(0);
+        state_.x.emplace_back();
+        state_.q.emplace_back();
+        state_.v.emplace_back();
+        state_.w.emplace_back();
+        state_.inv_mass.push_back(0);
+        state_.inv_inertia_world.emplace_back();
+        state_.force.emplace_back();
+        state_.torque.emplace_back();
+    }
+    const bool dynamic = def.type == BodyType::Dynamic;
+    ++generation_[slot];
+    if (generation_[slot] == 0) ++generation_[slot];  // wrapped: 0 is the null generation
+    alive_[slot] = true;
+    type_[slot] = def.type;
+    shape_[slot] = def.shape;
+    material_[slot] = def.material;
+    mass_[slot] = dynamic ? mp.mass : 0;
+    body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
+    inv_inertia_local_[slot] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
+    local_com_[slot] = dynamic ? mp.center : Vec3::Zero();
+    linear_damping_[slot] = def.linear_damping;
+    angular_damping_[slot] = def.angular_damping;
+    gravity_scale_[slot] = def.gravity_scale;
+    allow_sleep_[slot] = def.allow_sleep;
+    awake_[slot] = def.type != BodyType::Static;
+    sleep_timer_[slot] = 0;
+    user_data_[slot] = def.user_data;
+    island_[slot] = slot;
+    state_.q[slot] = pose.q;
+    state_.x[slot] = pose.apply(local_com_[slot]);
+    state_.v[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.linear_velocity;
+    state_.w[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.angular_velocity;
+    state_.inv_mass[slot] = body_inv_mass_[slot];
+    Mat3 r = pose.q.toRotationMatrix();
+    state_.inv_inertia_world[slot] = r * inv_inertia_local_[slot] * r.transpose();
+    state_.force[slot].setZero();
+    state_.torque[slot].setZero();
+    proxy_[slot] = tree_.create(box, slot, settings_.contact_margin);
+    ++alive_count_;
+    return {slot, generation_[slot]};
+}
+
+void RigidSystem::check(BodyId id, const char* where) const {
+    if (id.is_null()) throw RigidError(std::string(where) + ": body id is null");
+    if (id.index >= generation_.size() || !alive_[id.index] || generation_[id.index] != id.generation)
+        throw RigidError(std::string(where) + ": stale or unknown body id (index " + std::to_string(id.index) +
+                         ", generation " + std::to_string(id.generation) + ")");
+}
+
+bool RigidSystem::valid(BodyId id) const {
+    return !id.is_null() && id.index < generation_.size() && alive_[id.index] &&
+           generation_[id.index] == id.generation;
+}
+
+void RigidSystem::destroy_body(BodyId id) {
+    check(id, "destroy_body");
+    std::uint32_t s = id.index;
+    // Bodies that rested on this one must not be left floating asleep.
+    for (const ContactManifold& c : contacts_)
+        if (c.body_a == s || c.body_b == s) {
+            wake_island(c.body_a);
+            wake_island(c.body_b);
+        }
+    tree_.destroy(proxy_[s]);
+    proxy_[s] = DynamicTree::kNull;
+    alive_[s] = false;
+    shape_[s] = Shape{};
+    state_.inv_mass[s] = 0;
+    state_.v[s].setZero();
+    state_.w[s].setZero();
+    auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
+    contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
+    prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+    free_slots_.push_back(s);
+    --alive_count_;
+}
+
+std::vector<BodyId> RigidSystem::bodies() const {
+    std::vector<BodyId> out;
+    out.reserve(alive_count_);
+    for (std::uint32_t i = 0; i < generation_.size(); ++i)
+        if (alive_[i]) out.push_back({i, generation_[i]});
+    return out;
+}
+
+Transform RigidSystem::origin_transform(std::uint32_t s) const {
+    return {state_.x[s] - state_.q[s] * local_com_[s], state_.q[s]};
+}
+
+Transform RigidSystem::transform(BodyId id) const {
+    check(id, "transform");
+    return origin_transform(id.index);
+}
+
+void RigidSystem::set_transform(BodyId id, const Transform& xf) {
+    check(id, "set_transform");
+    if (!is_finite(xf.p) || !is_finite(xf.q) || xf.q.norm() < Real(1e-6))
+        throw RigidError("set_transform: transform must be finite with a non-zero quaternion");
+    std::uint32_t s = id.index;
+    state_.q[s] = xf.q.normalized();
+    state_.x[s] = xf.p + state_.q[s] * local_com_[s];
+    tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
+    wake_island(s);
+}
+
+Vec3 RigidSystem::linear_velocity(BodyId id) const {
+    check(id, "linear_velocity");
+    return state_.v[id.index];
+}
+
+Vec3 RigidSystem::angular_velocity(BodyId id) const {
+    check(id, "angular_velocity");
+    return state_.w[id.index];
+}
+
+void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
+    check(id, "set_velocity");
+    if (!is_finite(v) || !is_finite(w)) throw RigidError("set_velocity: velocities must be finite");
+    if (type_[id.index] == BodyType::Static) return;
+    state_.v[id.index] = v;
+    state_.w[id.index] = w;
+    wake_island(id.index);
+}
+
+void RigidSystem::apply_force(BodyId id, const Vec3& f, const Vec3& p) {
+    check(id, "apply_force");
+    if (!is_finite(f) || !is_finite(p)) throw RigidError("apply_force: force and point must be finite");
+    std::uint32_t s = id.index;
+    if (type_[s] != BodyType::Dynamic) return;
+    state_.force[s] += f;
+    state_.torque[s] += (p - state_.x[s]).cross(f);
+    wake_island(s);
+}
+
+void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
+    check(id, "apply_impulse");
+    if (!is_finite(j) || !is_finite(p)) throw RigidError("apply_impulse: impulse and point must be finite");
+    std::uint32_t s = id.index;
+    if (type_[s] != BodyType::Dynamic) return;
+    wake_island(s);
+    state_.v[s] += body_inv_mass_[s] * j;
+    Mat3 r = state_.q[s].toRotationMatrix();
+    state_.w[s] += r * inv_inertia_local_[s] * r.transpose() * (p - state_.x[s]).cross(j);
+}
+
+BodyType RigidSystem::type(BodyId id) const { check(id, "type"); return type_[id.index]; }
+Real RigidSystem::mass(BodyId id) const { check(id, "mass"); return mass_[id.index]; }
+const Shape& RigidSystem::shape(BodyId id) const { check(id, "shape"); return shape_[id.index]; }
+const Material& RigidSystem::material(BodyId id) const { check(id, "material"); return material_[id.index]; }
+bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
+void RigidSystem::wake(BodyId id) { check(id, "wake"); wake_island(id.index); }
+std::uint64_t RigidSystem::user_data(BodyId id) const { check(id, "user_data"); return user_data_[id.index]; }
+
+double RigidSystem::kinetic_energy() const {
+    double e = 0;
+    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
+        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+        Mat3 r = state_.q[s].toRotationMatrix();
+        Mat3 inertia = r * inv_inertia_local_[s].inverse() * r.transpose();
+        e += 0.5 * mass_[s] * state_.v[s].squaredNorm() + 0.5 * state_.w[s].dot(inertia * state_.w[s]);
+    }
+    return e;
+}
+
+Real RigidSystem::max_penetration() const {
+    Real d = 0;
+    for (const ContactManifold& c : contacts_)
+        for (int i = 0; i < c.manifold.count; ++i) d = std::max(d, c.manifold.points[i].depth);
+    return d;
+}
+
+bool RigidSystem::all_finite() const {
+    for (std::uint32_t s = 0; s < generation_.size(); ++s)
+        if (alive_[s] && (!is_finite(state_.x[s]) || !is_finite(state_.q[s]) || !is_finite(state_.v[s]) ||
+                          !is_finite(state_.w[s])))
+            return false;
+    return true;
+}
+
+// ---- stages -------------------------------------------------------------------------------------
+
+void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
+    switch (stage) {
+        case Stage::IntegrateVelocities:
+            prepare_mass_state();
+            solver_->before_integrate_velocities(*this, ctx.h);
+            integrate_velocities(ctx.h);
+            break;
+        case Stage::DetectCollisions: detect_collisions(ctx.h); break;
+        case Stage::SolveVelocities: solver_->solve_velocities(*this, ctx.h); break;
+        case Stage::IntegratePositions: integrate_positions(ctx.h); break;
+        default: break;
+    }
+}
+
+void RigidSystem::prepare_mass_state() {
+    const std::size_t n = generation_.size();
+    for (std::size_t s = 0; s < n; ++s) {
+        if (!(alive_[s] && type_[s] == BodyType::Dynamic && awake_[s])) {
+            // Static, kinematic and sleeping bodies are immovable in this step's solve.
+            state_.inv_mass[s] = 0;
+            state_.inv_inertia_world[s].setZero();
+            continue;
+        }
+        Mat3 r = state_.q[s].toRotationMatrix();
+        state_.inv_mass[s] = body_inv_mass_[s];
+        state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
+    }
+}
+
+void RigidSystem::integrate_velocities(Real h) {
+    const std::size_t n = generation_.size();
+    for (std::size_t s = 0; s < n; ++s) {
+        if (state_.inv_mass[s] == 0) continue;
+        Vec3 v = state_.v[s] + h * (gravity_scale_[s] * settings_.gravity + body_inv_mass_[s] * state_.force[s]);
+        Vec3 w = state_.w[s] + h * (state_.inv_inertia_world[s] * state_.torque[s]);
+        // Implicit damping factor 1/(1 + h c): unconditionally stable, as Box2D does.
+        state_.v[s] = v / (1 + h * linear_damping_[s]);
+        state_.w[s] = w / (1 + h * angular_damping_[s]);
+    }
+}
+
+void RigidSystem::detect_collisions(Real h) {
+    const Real margin = settings_.contact_margin;
+    // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
+    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
+        if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
+        tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), h * state_.v[s], margin);
+    }
+    candidate_pairs_.clear();
+    tree_.all_pairs(candidate_pairs_);
+    pair_keys_.clear();
+    for (const auto& [pa, pb] : candidate_pairs_) {
+        std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
+        if (a > b) std::swap(a, b);
+        if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
+        pair_keys_.push_back(pair_key(a, b));
+    }
+    std::sort(pair_keys_.begin(), pair_keys_.end());
+
+    std::swap(prev_contacts_, contacts_);
+    contacts_.clear();
+    std::size_t prev_i = 0;
+    const Real match_dist2 = (2 * margin) * (2 * margin);
+    for (std::uint64_t key : pair_keys_) {
+        std::uint32_t a = std::uint32_t(key >> 32), b = std::uint32_t(key & 0xFFFFFFFFu);
+        // Advance the merge-join cursor to this pair's cached manifolds (both lists sorted by key).
+        while (prev_i < prev_contacts_.size() && pair_key(prev_contacts_[prev_i].body_a, prev_contacts_[prev_i].body_b) < key)
+            ++prev_i;
+        std::size_t prev_end = prev_i;
+        while (prev_end < prev_contacts_.size() && pair_key(prev_contacts_[prev_end].body_a, prev_contacts_[prev_end].body_b) == key)
+            ++prev_end;
+        const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
+        const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
+        if (asleep_a && asleep_b) {
+            // Sleeping pair (seed 001 ch.2): not tested, but its contacts are kept so the island stays
+            // connected and wakes as a whole.
+            for (std::size_t i = prev_i; i < prev_end; ++i) contacts_.push_back(prev_contacts_[i]);
+            continue;
+        }
+        Transform xa = detection_transform(a, h), xb = detection_transform(b, h);
+        scratch_.clear();
+        collide(shape_[a], xa, shape_[b], xb, margin, scratch_);
+        if (scratch_.empty()) continue;
+        Real friction = std::sqrt(material_[a].friction * material_[b].friction);
+        Real restitution = std::max(material_[a].restitution, material_[b].restitution);
+        for (Manifold& m : scratch_) {
+            for (int k = 0; k < m.count; ++k) {
+                ContactPoint& p = m.points[k];
+                p.local_a = xa.apply_inverse(p.position);
+                p.local_b = xb.apply_inverse(p.position);
+            }
+            // Warm starting: carry impulses from the cached manifold with the same sub_key, matching
+            // points by feature id, else by proximity in A's local frame (seed 001 ch.5).
+            if (settings_.warm_starting) {
+                for (std::size_t i = prev_i; i < prev_end; ++i) {
+                    const Manifold& old = prev_contacts_[i].manifold;
+                    if (old.sub_key != m.sub_key) continue;
+                    for (int k = 0; k < m.count; ++k) {
+                        ContactPoint& p = m.points[k];
+                        int best = -1;
+                        Real best_d2 = match_dist2;
+                        for (int j = 0; j < old.count; ++j) {
+                            if (old.points[j].feature_id == p.feature_id) {
+                                best = j;
+                                break;
+                            }
+                            Real d2 = (old.points[j].local_a - p.local_a).squaredNorm();
+                            if (d2 < best_d2) {
+                                best_d2 = d2;
+                                best = j;
+                            }
+                        }
+                        if (best >= 0) {
+                            p.normal_impulse = old.points[best].normal_impulse;
+                            p.tangent_impulse[0] = old.points[best].tangent_impulse[0];
+                            p.tangent_impulse[1] = old.points[best].tangent_impulse[1];
+                        }
+                    }
+                    break;
+                }
+            }
+            contacts_.push_back({a, b, friction, restitution, m});
+        }
+        // A sleeping body touched by an awake one wakes with its whole island.
+        if (asleep_a != asleep_b) wake_island(asleep_a ? a : b);
+    }
+    // collide() may return sub_keys unordered within a pair; keep the list sorted for the next merge.
+    std::sort(contacts_.begin(), contacts_.end(), manifold_less);
+}
+
+Transform RigidSystem::detection_transform(std::uint32_t s, Real h) const {
+    if (!solver_->detects_at_candidate_poses() || type_[s] == BodyType::Static || !awake_[s])
+        return origin_transform(s);
+    // Guendelman 2003: contacts are found where the bodies would be after a step with the current
+    // velocities, so the impulses act before the penetration happens.
+    Quat q = integrate_rotation(state_.q[s], state_.w[s], h);
+    Vec3 x = state_.x[s] + h * state_.v[s];
+    return {x - q * local_com_[s], q};
+}
+
+void RigidSystem::integrate_positions(Real h) {
+    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
+        if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
+        state_.x[s] += h * state_.v[s];
+        state_.q[s] = integrate_rotation(state_.q[s], state_.w[s], h);
+        state_.force[s].setZero();
+        state_.torque[s].setZero();
+    }
+    solver_->correct_positions(*this, h);
+    if (settings_.sleeping) update_sleep(h);
+}
+
+// ---- islands and sleeping (seed 001 ch.2) -----------------------------------------------------------
+
+std::uint32_t RigidSystem::find_root(std::uint32_t s) {
+    while (island_[s] != s) {
+        island_[s] = island_[island_[s]];  // path halving
+        s = island_[s];
+    }
+    return s;
+}
+
+void RigidSystem::wake_island(std::uint32_t s) {
+    if (type_[s] != BodyType::Dynamic) return;
+    if (awake_[s]) {  // an awake body's island is awake (update_sleep keeps islands uniform)
+        sleep_timer_[s] = 0;
+        return;
+    }
+    // Islands are from the last update_sleep(); waking is rare, so a linear scan is fine.
+    std::uint32_t root = find_root(s);
+    for (std::uint32_t i = 0; i < generation_.size(); ++i)
+        if (alive_[i] && type_[i] == BodyType::Dynamic && !awake_[i] && find_root(i) == root) {
+            awake_[i] = true;
+            sleep_timer_[i] = 0;
+            // Woken mid-step: it takes part in this step's solve with its real mass.
+            Mat3 r = state_.q[i].toRotationMatrix();
+            state_.inv_mass[i] = body_inv_mass_[i];
+            state_.inv_inertia_world[i] = r * inv_inertia_local_[i] * r.transpose();
+        }
+}
+
+void RigidSystem::update_sleep(Real h) {
+    const std::size_t n = generation_.size();
+    // Islands: union-find over contacts between two dynamic bodies (static bodies do not join islands).
+    for (std::uint32_t s = 0; s < n; ++s) island_[s] = s;
+    for (const ContactManifold& c : contacts_) {
+        if (c.manifold.count == 0 || type_[c.body_a] != BodyType::Dynamic || type_[c.body_b] != BodyType::Dynamic)
+            continue;
+        std::uint32_t ra = find_root(c.body_a), rb = find_root(c.body_b);
+        if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    const Real lin2 = settings_.sleep_linear_velocity * settings_.sleep_linear_velocity;
+    const Real ang2 = settings_.sleep_angular_velocity * settings_.sleep_angular_velocity;
+    // Per body: time spent below the thresholds. Per island: the minimum over its bodies.
+    island_min_timer_.assign(n, kRealMax);
+    island_awake_.assign(n, 0);
+    for (std::uint32_t s = 0; s < n; ++s) {
+        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+        if (awake_[s]) {
+            if (!allow_sleep_[s] || state_.v[s].squaredNorm() > lin2 || state_.w[s].squaredNorm() > ang2)
+                sleep_timer_[s] = 0;
+            else
+                sleep_timer_[s] += h;
+        }
+        std::uint32_t r = find_root(s);
+        island_min_timer_[r] = std::min(island_min_timer_[r], awake_[s] ? sleep_timer_[s] : kRealMax);
+        island_awake_[r] |= awake_[s] ? 1 : 0;
+    }
+    for (std::uint32_t s = 0; s < n; ++s) {
+        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+        std::uint32_t r = find_root(s);
+        if (island_awake_[r] && island_min_timer_[r] >= settings_.sleep_time) {
+            awake_[s] = false;  // the whole island falls asleep together
+            state_.v[s].setZero();
+            state_.w[s].setZero();
+        } else if (island_awake_[r] && !awake_[s]) {
+            awake_[s] = true;   // joined an awake island: nothing may stay asleep in it (no floating)
+            sleep_timer_[s] = 0;
+        }
+    }
+}
+
+}  // namespace sinew

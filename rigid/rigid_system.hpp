@@ -1,0 +1,155 @@
+// The rigid-body system: bodies, broad phase, contact cache and a solver, run as pipeline stages.
+//
+// Hot state lives in flat arrays indexed by body slot (pose, velocity, inverse mass and inertia), prepared
+// once per step; cold data (shape, material, user data) sits apart. Body slots are reused through a free
+// list; BodyId's generation detects stale handles.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "engine/core/dynamic_tree.hpp"
+#include "engine/core/manifold.hpp"
+#include "engine/core/narrowphase.hpp"
+#include "engine/core/pipeline.hpp"
+#include "rigid/rigid_body.hpp"
+#include "rigid/rigid_settings.hpp"
+
+namespace sinew {
+
+/// Bad user data given to the rigid system (negative mass, NaN pose, stale id, ...).
+struct RigidError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+/// A manifold between two bodies, with the combined material, as solvers and coupling layers read it.
+struct ContactManifold {
+    std::uint32_t body_a = 0;  ///< body slot indices
+    std::uint32_t body_b = 0;
+    Real friction = 0;
+    Real restitution = 0;
+    Manifold manifold;
+};
+
+class RigidSolver;
+
+class RigidSystem final : public System {
+public:
+    explicit RigidSystem(const RigidSettings& settings = {});
+    ~RigidSystem() override;
+    RigidSystem(const RigidSystem&) = delete;
+    RigidSystem& operator=(const RigidSystem&) = delete;
+
+    const char* name() const override { return "rigid"; }
+    void run_stage(Stage stage, const StepContext& ctx) override;
+
+    const RigidSettings& settings() const { return settings_; }
+    /// Validates and applies new settings (throws RigidError naming the bad field).
+    void set_settings(const RigidSettings& s);
+
+    // ---- bodies -------------------------------------------------------------------------------------
+    BodyId create_body(const BodyDef& def);   ///< validates def; throws RigidError and changes nothing
+    void destroy_body(BodyId id);
+    bool valid(BodyId id) const;
+    std::size_t body_count() const { return alive_count_; }
+    /// Ids of all live bodies in slot order.
+    std::vector<BodyId> bodies() const;
+    BodyId id_of_slot(std::uint32_t slot) const { return {slot, generation_[slot]}; }
+    std::size_t slot_count() const { return generation_.size(); }
+    bool slot_alive(std::uint32_t slot) const { return alive_[slot]; }
+
+    /// Body origin transform (not the centre of mass).
+    Transform transform(BodyId id) const;
+    void set_transform(BodyId id, const Transform& xf);
+    Vec3 linear_velocity(BodyId id) const;
+    Vec3 angular_velocity(BodyId id) const;
+    void set_velocity(BodyId id, const Vec3& v, const Vec3& w);
+    void apply_force(BodyId id, const Vec3& force, const Vec3& world_point);
+    void apply_impulse(BodyId id, const Vec3& impulse, const Vec3& world_point);
+    BodyType type(BodyId id) const;
+    Real mass(BodyId id) const;
+    const Shape& shape(BodyId id) const;
+    const Material& material(BodyId id) const;
+    bool awake(BodyId id) const;
+    void wake(BodyId id);
+    std::uint64_t user_data(BodyId id) const;
+
+    /// Kinetic energy of all dynamic bodies (J).
+    double kinetic_energy() const;
+    /// Deepest penetration among current contacts (m, >= 0).
+    Real max_penetration() const;
+    /// False if any body's state is NaN or infinite.
+    bool all_finite() const;
+
+    /// Contacts found by the last DetectCollisions stage (solver order; impulses after the solve).
+    const std::vector<ContactManifold>& contacts() const { return contacts_; }
+    /// For solvers (accumulated impulses) and coupling layers.
+    std::vector<ContactManifold>& mutable_contacts() { return contacts_; }
+    /// Runs the broad and narrow phase now (solvers that detect more than once per step call it).
+    void detect_contacts_now(Real h) { detect_collisions(h); }
+    /// Body type by slot, for solvers.
+    BodyType slot_type(std::uint32_t slot) const { return type_[slot]; }
+
+    // ---- hot state, for solvers and coupling layers ---------------------------------------------------
+    struct State {
+        std::vector<Vec3> x;          ///< centre of mass, world
+        std::vector<Quat> q;          ///< orientation
+        std::vector<Vec3> v;          ///< linear velocity of the centre of mass
+        std::vector<Vec3> w;          ///< angular velocity, world
+        std::vector<Real> inv_mass;   ///< 0 for static, kinematic and sleeping bodies in the solve
+        std::vector<Mat3> inv_inertia_world;
+        std::vector<Vec3> force;      ///< accumulated this step, cleared after integration
+        std::vector<Vec3> torque;
+    };
+    State& state() { return state_; }
+    const State& state() const { return state_; }
+
+private:
+    void check(BodyId id, const char* where) const;
+    void prepare_mass_state();
+    void integrate_velocities(Real h);
+    void detect_collisions(Real h);
+    /// Where shapes are placed for collision detection: current poses, or candidate poses x + h v.
+    Transform detection_transform(std::uint32_t slot, Real h) const;
+    void solve_velocities(Real h);
+    void integrate_positions(Real h);
+    void update_sleep(Real h);
+    void wake_island(std::uint32_t slot);
+    std::uint32_t find_root(std::uint32_t slot);
+    Transform origin_transform(std::uint32_t slot) const;
+
+    RigidSettings settings_;
+    State state_;
+    // cold per-slot data
+    std::vector<std::uint32_t> generation_;
+    std::vector<bool> alive_;
+    std::vector<std::uint32_t> free_slots_;
+    std::vector<BodyType> type_;
+    std::vector<Shape> shape_;
+    std::vector<Material> material_;
+    std::vector<Real> mass_;
+    std::vector<Real> body_inv_mass_;     ///< the body's own inverse mass (0 if not dynamic)
+    std::vector<Mat3> inv_inertia_local_;
+    std::vector<Vec3> local_com_;
+    std::vector<Real> linear_damping_, angular_damping_, gravity_scale_;
+    std::vector<bool> allow_sleep_, awake_;
+    std::vector<Real> sleep_timer_;
+    std::vector<std::uint64_t> user_data_;
+    std::vector<std::int32_t> proxy_;
+    std::vector<std::uint32_t> island_;   ///< union-find parent, rebuilt each step by update_sleep()
+    std::vector<Real> island_min_timer_;
+    std::vector<std::uint8_t> island_awake_;
+    std::vector<std::uint64_t> pair_keys_;
+    std::size_t alive_count_ = 0;
+
+    DynamicTree tree_;
+    std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;
+    std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
+    std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
+    ManifoldList scratch_;
+    std::unique_ptr<RigidSolver> solver_;
+};
+
+}  // namespace sinew

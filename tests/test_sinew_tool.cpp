@@ -1,0 +1,238 @@
+// The `sinew` command-line tool, run as a separate process: exit statuses, messages, the JSON line of
+// `sinew run` and the record file.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "engine/world/scene.hpp"
+
+using namespace sinew;
+using Catch::Matchers::Contains;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kSinew = std::string(SINEW_BIN_DIR) + "/sinew";
+const std::string kSource = SINEW_SOURCE_DIR;
+const std::string kShowcase = kSource + "/demos/scenes/showcase-falling-boxes.json";
+
+struct Result {
+    bool exited = false;  // false: killed by a signal (a crash)
+    int status = -1;
+    std::string out, err;
+};
+
+std::string quote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// A scratch folder per process (CTest runs test cases as parallel processes), removed at exit.
+struct Scratch {
+    fs::path dir = fs::temp_directory_path() / ("sinew-tool-test-" + std::to_string(::getpid()));
+    ~Scratch() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+};
+fs::path scratch() {
+    static Scratch s;
+    fs::create_directories(s.dir);
+    return s.dir;
+}
+
+Result sinew_cmd(const std::string& args) {
+    const fs::path dir = scratch();
+    const fs::path out = dir / "stdout", err = dir / "stderr";
+    const std::string cmd = quote(kSinew) + " " + args + " >" + quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
+    const int w = std::system(cmd.c_str());
+    Result r;
+    r.exited = w != -1 && WIFEXITED(w);
+    r.status = r.exited ? WEXITSTATUS(w) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    return lines;
+}
+
+}  // namespace
+
+TEST_CASE("the sinew binary exists", "[tool]") {
+    REQUIRE(fs::exists(kSinew));
+}
+
+TEST_CASE("validate rejects every bad scene with status 1 and names the JSON pointer", "[tool]") {
+    std::ifstream table(kSource + "/tests/data/scenes/bad/EXPECTED.tsv");
+    REQUIRE(table);
+    int checked = 0;
+    for (std::string line; std::getline(table, line);) {
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream ls(line);
+        std::string file, pointer, fragment;
+        std::getline(ls, file, '\t');
+        std::getline(ls, pointer, '\t');
+        std::getline(ls, fragment);
+        INFO("file " << file);
+        const std::string path = kSource + "/tests/data/scenes/bad/" + file;
+        const Result r = sinew_cmd("validate " + quote(path));
+        INFO("stderr: " << r.err);
+        REQUIRE(r.exited);  // no crash
+        CHECK(r.status == 1);
+        CHECK(r.out.empty());
+        // The message is the SceneError's what(): "FILE: /pointer: problem".
+        CHECK_THAT(r.err, Contains(path + ": " + (pointer.empty() ? "" : pointer + ": ")));
+        CHECK_THAT(r.err, Contains(fragment));
+        ++checked;
+    }
+    CHECK(checked >= 40);
+}
+
+TEST_CASE("validate accepts the good test scenes and every demo scene", "[tool]") {
+    std::vector<fs::path> scenes;
+    for (const char* dir : {"/tests/data/scenes/good", "/demos/scenes"})
+        for (const auto& e : fs::directory_iterator(kSource + dir))
+            if (e.path().extension() == ".json") scenes.push_back(e.path());
+    REQUIRE(scenes.size() >= 5);
+    for (const fs::path& p : scenes) {
+        INFO(p.string());
+        const Result r = sinew_cmd("validate " + quote(p.string()));
+        INFO("stderr: " << r.err);
+        REQUIRE(r.exited);
+        CHECK(r.status == 0);
+        CHECK(r.out.rfind("ok: ", 0) == 0);
+        CHECK_THAT(r.out, Contains(" bodies\n"));
+    }
+    const Result r = sinew_cmd("validate " + quote(kSource + "/tests/data/scenes/good/pyramid-10.json"));
+    CHECK(r.out == "ok: 56 bodies\n");  // ground + 10 * 11 / 2 boxes
+}
+
+TEST_CASE("bad arguments print usage on stderr and exit 2", "[tool]") {
+    for (const char* args : {"", "frobnicate", "run", "run a.json b.json", "run --steps", "run x.json --steps abc",
+                             "run x.json --steps -1", "run x.json --dt 0", "run x.json --dt nan", "run x.json --bogus",
+                             "validate", "validate --strict x.json"}) {
+        INFO("sinew " << args);
+        const Result r = sinew_cmd(args);
+        REQUIRE(r.exited);
+        CHECK(r.status == 2);
+        CHECK_THAT(r.err, Contains("usage: sinew"));
+        CHECK(r.out.empty());
+    }
+}
+
+TEST_CASE("--help and --version", "[tool]") {
+    Result r = sinew_cmd("--help");
+    CHECK(r.status == 0);
+    CHECK_THAT(r.out, Contains("usage: sinew"));
+    CHECK_THAT(r.out, Contains("run"));
+    CHECK_THAT(r.out, Contains("validate"));
+    r = sinew_cmd("run --help");
+    CHECK(r.status == 0);
+    CHECK_THAT(r.out, Contains("--record FILE"));
+    r = sinew_cmd("--version");
+    CHECK(r.status == 0);
+    CHECK(r.out.rfind("sinew 0.", 0) == 0);
+}
+
+TEST_CASE("run and validate of a missing file exit 1 naming the file", "[tool]") {
+    for (const char* cmd : {"run", "validate"}) {
+        const Result r = sinew_cmd(std::string(cmd) + " /no/such/scene.json");
+        REQUIRE(r.exited);
+        CHECK(r.status == 1);
+        CHECK_THAT(r.err, Contains("/no/such/scene.json: cannot open scene file"));
+    }
+}
+
+TEST_CASE("run of the showcase prints one finite JSON line", "[tool]") {
+    const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 30");
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const std::vector<std::string> lines = lines_of(r.out);
+    REQUIRE(lines.size() == 1);
+    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(lines[0]);
+    std::vector<std::string> keys;
+    for (const auto& item : j.items()) keys.push_back(item.key());
+    CHECK(keys == std::vector<std::string>{"scene", "steps", "bodies", "ms_per_step_median", "max_penetration",
+                                           "kinetic_energy", "finite"});
+    CHECK(j["scene"] == "showcase-falling-boxes");
+    CHECK(j["steps"] == 30);
+    CHECK(j["bodies"] == parse_scene_file(kShowcase).bodies.size());
+    CHECK(j["finite"] == true);
+    CHECK_THAT(lines[0], Contains("\"finite\":true"));
+    CHECK(j["ms_per_step_median"].get<double>() >= 0);
+    CHECK(j["max_penetration"].get<double>() >= 0);
+    // 30 steps = 0.5 s of free fall; the lowest bodies start 1.5 m or more above the ground and need
+    // about 0.55 s to land, so everything is still falling and the kinetic energy is positive.
+    CHECK(j["kinetic_energy"].get<double>() > 0);
+}
+
+TEST_CASE("run --record writes a header and one line per frame", "[tool]") {
+    const fs::path rec = scratch() / "showcase.jsonl";
+    const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 5 --dt 0.01 --record " + quote(rec.string()));
+    INFO("stderr: " << r.err);
+    REQUIRE(r.exited);
+    REQUIRE(r.status == 0);
+    const std::vector<std::string> lines = lines_of(slurp(rec));
+    REQUIRE(lines.size() == 1 + 6);  // header, frame 0 (the initial state), frames 1..5
+
+    const SceneDesc scene = parse_scene_file(kShowcase);
+    const nlohmann::json header = nlohmann::json::parse(lines[0]);
+    CHECK(header["format"] == "sinew-record");
+    CHECK(header["version"] == 1);
+    CHECK(header["scene"] == "showcase-falling-boxes");
+    CHECK(header["time_step"].get<double>() == Approx(0.01));
+    REQUIRE(header["bodies"].size() == scene.bodies.size());
+    CHECK(header["bodies"][0]["name"] == "ground");
+    CHECK(header["bodies"][0]["type"] == "static");
+    CHECK(header["bodies"][0]["shape"]["type"] == "box");
+    CHECK(header["particles"].is_array());
+
+    for (std::size_t f = 0; f <= 5; ++f) {
+        INFO("frame " << f);
+        const nlohmann::json frame = nlohmann::json::parse(lines[1 + f]);
+        CHECK(frame["frame"] == f);
+        CHECK(frame["time"].get<double>() == Approx(0.01 * double(f)).margin(1e-9));
+        REQUIRE(frame["bodies"].size() == scene.bodies.size());
+        for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+            const auto& t = frame["bodies"][b];
+            REQUIRE(t.size() == 7);
+            // Written in float precision: unit quaternions to a few float ulps.
+            const double qn = std::sqrt(t[3].get<double>() * t[3].get<double>() + t[4].get<double>() * t[4].get<double>() +
+                                        t[5].get<double>() * t[5].get<double>() + t[6].get<double>() * t[6].get<double>());
+            CHECK(qn == Approx(1).margin(1e-5));
+            if (f == 0) {
+                // Frame 0 is the scene as loaded, to float precision.
+                const Vec3 p = scene.bodies[b].def.pose.p;
+                CHECK(t[0].get<double>() == Approx(double(p.x())).margin(1e-6));
+                CHECK(t[1].get<double>() == Approx(double(p.y())).margin(1e-6));
+                CHECK(t[2].get<double>() == Approx(double(p.z())).margin(1e-6));
+            }
+        }
+    }
+}
+
+TEST_CASE("run with an unwritable record file exits 1", "[tool]") {
+    const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 1 --record /no/such/dir/rec.jsonl");
+    REQUIRE(r.exited);
+    CHECK(r.status == 1);
+    CHECK_THAT(r.err, Contains("cannot write record file"));
+}

@@ -1,0 +1,243 @@
+// `sinew bench rigid [--scenes a,b] [--steps N] [--chart FILE.png] [--markdown FILE.md]`
+//
+// Runs every stacking scene under each Sinew solver setting and under Bullet in the same process, prints
+// one JSON line per (scene, engine, variant) on stdout and progress on stderr. --markdown rewrites the
+// rigid section of a results file (between <!-- bench-rigid:begin --> and <!-- bench-rigid:end -->);
+// --chart draws time against drift with gnuplot.
+#include "tools/bench/bench_rigid.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "tools/bench/results_file.hpp"
+#include "tools/commands.hpp"
+
+namespace sinew::bench {
+
+namespace {
+
+const char* kDefaultScenes[] = {"pyramid-10", "pyramid-20", "pyramid-40", "tower-10", "tower-20", "many-pyramids"};
+
+struct SinewVariant {
+    const char* engine;
+    const char* variant;
+    RigidSolverKind solver;
+    bool warm;
+    PositionCorrection correction;
+};
+
+const SinewVariant kVariants[] = {
+    {"sinew-si", "warm+split", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SplitImpulse},
+    {"sinew-si", "cold+split", RigidSolverKind::SequentialImpulse, false, PositionCorrection::SplitImpulse},
+    {"sinew-si", "warm+baumgarte", RigidSolverKind::SequentialImpulse, true, PositionCorrection::Baumgarte},
+};
+
+std::vector<Vec3> dynamic_positions(const World& w, const std::vector<BodyId>& ids) {
+    std::vector<Vec3> p;
+    p.reserve(ids.size());
+    for (BodyId id : ids) p.push_back(w.rigid().transform(id).p);
+    return p;
+}
+
+RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int iterations) {
+    SceneDesc s = scene;
+    s.settings.rigid.solver = v.solver;
+    s.settings.rigid.warm_starting = v.warm;
+    s.settings.rigid.correction = v.correction;
+    s.settings.rigid.velocity_iterations = iterations;
+    std::vector<BodyId> ids;
+    std::unique_ptr<World> world = build_world(s, &ids);
+    std::vector<BodyId> dyn;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (s.bodies[i].def.type == BodyType::Dynamic) dyn.push_back(ids[i]);
+    DriftMeter meter;
+    meter.start(dynamic_positions(*world, dyn));
+    RigidRun run;
+    run.scene = scene.name;
+    run.engine = v.engine;
+    run.variant = v.variant;
+    run.bodies = int(dyn.size());
+    run.iterations = iterations;
+    std::vector<double> ms;
+    ms.reserve(steps);
+    for (int i = 0; i < steps; ++i) {
+        auto t0 = std::chrono::steady_clock::now();
+        world->step();
+        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        if (!world->rigid().all_finite()) {
+            run.finite = false;
+            break;
+        }
+        meter.sample(dynamic_positions(*world, dyn));
+        ++run.steps;
+    }
+    run.ms_per_step_median = median(ms);
+    run.max_drift = meter.max_drift();
+    run.max_drop = meter.max_drop();
+    run.stood = run.finite && run.max_drift < 0.05;
+    run.collapsed = !run.finite || run.max_drop > 0.5;
+    return run;
+}
+
+std::vector<std::string> split_list(const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ','))
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
+
+std::string markdown_table(const std::vector<RigidRun>& runs) {
+    std::ostringstream md;
+    md << "| scene | engine | variant | bodies | iterations | ms/step (median) | max drift (m) | stood | collapsed |\n";
+    md << "|---|---|---|---:|---:|---:|---:|---|---|\n";
+    char buf[512];
+    for (const RigidRun& r : runs) {
+        std::snprintf(buf, sizeof buf, "| %s | %s | %s | %d | %d | %.3f | %.4f | %s | %s |\n", r.scene.c_str(),
+                      r.engine.c_str(), r.variant.c_str(), r.bodies, r.iterations, r.ms_per_step_median,
+                      r.max_drift, r.stood ? "yes" : "no", r.collapsed ? "yes" : "no");
+        md << buf;
+    }
+    // Speed ratio against Bullet from the same run, per scene.
+    md << "\n| scene | Sinew (warm+split) ms | Bullet ms | Bullet / Sinew |\n|---|---:|---:|---:|\n";
+    for (const RigidRun& s : runs) {
+        if (s.engine != "sinew-si" || s.variant != "warm+split") continue;
+        for (const RigidRun& b : runs)
+            if (b.engine == "bullet" && b.scene == s.scene && s.ms_per_step_median > 0) {
+                std::snprintf(buf, sizeof buf, "| %s | %.3f | %.3f | %.2f |\n", s.scene.c_str(), s.ms_per_step_median,
+                              b.ms_per_step_median, b.ms_per_step_median / s.ms_per_step_median);
+                md << buf;
+            }
+    }
+    return md.str();
+}
+
+bool write_chart(const std::vector<RigidRun>& runs, const std::string& png) {
+    // One series per engine/variant; x = median ms per step, y = max drift (both log scale).
+    std::string dat = png + ".dat";
+    std::ofstream out(dat);
+    std::vector<std::string> series;
+    for (const RigidRun& r : runs) {
+        std::string key = r.engine + " " + r.variant;
+        if (std::find(series.begin(), series.end(), key) == series.end()) series.push_back(key);
+    }
+    for (const std::string& key : series) {
+        out << "# " << key << "\n";
+        for (const RigidRun& r : runs)
+            if (r.engine + " " + r.variant == key)
+                out << std::max(r.ms_per_step_median, 1e-4) << " " << std::max(r.max_drift, 1e-5) << " " << r.scene << "\n";
+        out << "\n\n";
+    }
+    out.close();
+    std::string gp = png + ".gp";
+    std::ofstream g(gp);
+    g << "set terminal pngcairo size 1000,650\nset output '" << png << "'\n"
+      << "set logscale xy\nset xlabel 'median ms per step (lower is faster)'\n"
+      << "set ylabel 'max drift over the run, m (lower is more accurate)'\n"
+      << "set title 'Rigid stacking: time against drift, one point per scene'\nset key outside right\n"
+      << "set grid\nset arrow from graph 0, first 0.05 to graph 1, first 0.05 nohead dt 2 lc rgb 'red'\n"
+      << "plot ";
+    for (std::size_t i = 0; i < series.size(); ++i)
+        g << (i ? ", " : "") << "'" << dat << "' index " << i << " using 1:2 with points pt " << (5 + int(i))
+          << " ps 1.6 title '" << series[i] << "', '' index " << i
+          << " using 1:2:3 with labels offset 0,0.8 font ',7' notitle";
+    g << "\n";
+    g.close();
+    int rc = std::system(("gnuplot '" + gp + "'").c_str());
+    std::remove(dat.c_str());
+    std::remove(gp.c_str());
+    return rc == 0;
+}
+
+}  // namespace
+
+int cmd_bench(const std::vector<std::string>& args) {
+    using tool::UsageError;
+    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? only 'rigid' exists so far");
+    std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
+    int steps = -1, iterations = 10;
+    std::string chart, markdown, scene_dir = "demos/scenes";
+    for (std::size_t i = 1; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        if (tool::is_option(a, "--scenes")) scenes = split_list(tool::option_value(args, i, "--scenes"));
+        else if (tool::is_option(a, "--steps"))
+            steps = int(tool::parse_int("--steps", tool::option_value(args, i, "--steps"), 1, 10000000));
+        else if (tool::is_option(a, "--iterations"))
+            iterations = int(tool::parse_int("--iterations", tool::option_value(args, i, "--iterations"), 1, 1000));
+        else if (tool::is_option(a, "--chart")) chart = tool::option_value(args, i, "--chart");
+        else if (tool::is_option(a, "--markdown")) markdown = tool::option_value(args, i, "--markdown");
+        else if (tool::is_option(a, "--scene-dir")) scene_dir = tool::option_value(args, i, "--scene-dir");
+        else throw UsageError("unknown option '" + a + "'");
+    }
+    if (scenes.empty()) throw UsageError("--scenes is empty");
+    std::vector<RigidRun> runs;
+    for (const std::string& name : scenes) {
+        const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");  // SceneError: exit 1
+        int n = steps > 0 ? steps : scene.steps;
+        for (const SinewVariant& v : kVariants) {
+            std::cerr << "bench: " << name << " " << v.engine << " " << v.variant << " (" << n << " steps)...\n";
+            runs.push_back(run_sinew(scene, v, n, iterations));
+            std::cout << to_json_line(runs.back()) << std::endl;
+        }
+        std::cerr << "bench: " << name << " bullet (" << n << " steps)...\n";
+        runs.push_back(run_bullet(scene, n, iterations));
+        std::cout << to_json_line(runs.back()) << std::endl;
+    }
+    if (!chart.empty() && !write_chart(runs, chart)) std::cerr << "sinew bench: gnuplot failed; no chart\n";
+    if (!markdown.empty()) {
+        std::string body = markdown_table(runs);
+        if (!chart.empty()) body += "\n![time against drift](" + relative_to(chart, markdown) + ")\n";
+        if (!replace_section(markdown, "bench-rigid", body)) {
+            std::cerr << "sinew bench: could not write " << markdown << "\n";
+            return 1;
+        }
+    }
+    return 0;
+}
+
+void DriftMeter::sample(const std::vector<Vec3>& p) {
+    for (std::size_t i = 0; i < p.size() && i < start_.size(); ++i) {
+        max_drift_ = std::max(max_drift_, double((p[i] - start_[i]).norm()));
+        max_drop_ = std::max(max_drop_, double(start_[i].y() - p[i].y()));
+    }
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+}
+
+std::string to_json_line(const RigidRun& r) {
+    char buf[640];
+    std::snprintf(buf, sizeof buf,
+                  "{\"scene\":\"%s\",\"engine\":\"%s\",\"variant\":\"%s\",\"bodies\":%d,\"iterations\":%d,"
+                  "\"steps\":%d,\"ms_per_step_median\":%.4f,\"max_drift\":%.5f,\"stood\":%s,\"collapsed\":%s,"
+                  "\"finite\":%s}",
+                  r.scene.c_str(), r.engine.c_str(), r.variant.c_str(), r.bodies, r.iterations, r.steps,
+                  r.ms_per_step_median, r.max_drift, r.stood ? "true" : "false", r.collapsed ? "true" : "false",
+                  r.finite ? "true" : "false");
+    return buf;
+}
+
+}  // namespace sinew::bench
+
+namespace sinew::tool {
+const Command bench_command = {
+    "bench", bench::cmd_bench, "benchmark Sinew's solvers against Bullet in the same run",
+    "usage: sinew bench rigid [--scenes a,b,...] [--steps N] [--iterations N] [--chart FILE.png]\n"
+    "                         [--markdown FILE.md] [--scene-dir DIR]\n"
+    "\n"
+    "Runs each scene (default: pyramid-10/20/40, tower-10/20, many-pyramids from demos/scenes) under\n"
+    "every Sinew solver setting and under Bullet 3.24, in this process. Progress goes to stderr; one JSON\n"
+    "line per (scene, engine, variant) to stdout: scene, engine, variant, bodies, iterations, steps,\n"
+    "ms_per_step_median, max_drift (m, largest distance any box moved from its start during the run),\n"
+    "stood (max_drift < 0.05 m), collapsed (a box dropped > 0.5 m), finite.\n"
+    "--chart draws time against drift (gnuplot); --markdown rewrites the bench-rigid section of a results\n"
+    "file such as docs/RESULTS.md.\n"};
+}  // namespace sinew::tool

@@ -1,0 +1,51 @@
+// `sinew bench rigid`: the stacking scenes run with Sinew's solver settings and with Bullet, measured in
+// the same run on the same machine.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "engine/world/scene.hpp"
+
+namespace sinew::bench {
+
+/// One (scene, engine, variant) run.
+struct RigidRun {
+    std::string scene;
+    std::string engine;   ///< sinew-si, sinew-newton, bullet
+    std::string variant;  ///< which setting of the engine (e.g. "warm+split", "cold+split", "default")
+    int bodies = 0;       ///< dynamic bodies
+    int iterations = 0;   ///< velocity iterations per step
+    int steps = 0;
+    double ms_per_step_median = 0;
+    double max_drift = 0;  ///< m: largest distance any dynamic body moved from its start, over the run
+    double max_drop = 0;   ///< m: largest downward displacement of any dynamic body, over the run
+    bool stood = false;    ///< max_drift < 0.05 m
+    bool collapsed = false;  ///< some body dropped more than 0.5 m
+    bool finite = true;
+};
+
+/// Tracks drift and drop of dynamic bodies against their start positions.
+class DriftMeter {
+public:
+    void start(const std::vector<Vec3>& positions) { start_ = positions; }
+    void sample(const std::vector<Vec3>& positions);
+    double max_drift() const { return max_drift_; }
+    double max_drop() const { return max_drop_; }
+
+private:
+    std::vector<Vec3> start_;
+    double max_drift_ = 0, max_drop_ = 0;
+};
+
+double median(std::vector<double> v);
+std::string to_json_line(const RigidRun& r);
+
+/// Bullet 3.24 (Debian's libbullet), configured as issue 3 prescribes: btDiscreteDynamicsWorld with the
+/// default sequential-impulse solver, `iterations` solver iterations, stepSimulation(h, 0), per-contact
+/// friction equal to Sinew's mixed friction, deactivation disabled when the scene disables sleeping.
+RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations);
+
+int cmd_bench(const std::vector<std::string>& args);
+
+}  // namespace sinew::bench

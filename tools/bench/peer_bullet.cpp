@@ -1,0 +1,155 @@
+// The Bullet side of the rigid benchmark. Bullet is linked into this tool only, never into the library.
+#include <btBulletDynamicsCommon.h>
+
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+
+#include "tools/bench/bench_rigid.hpp"
+
+namespace sinew::bench {
+
+namespace {
+
+btVector3 bt(const Vec3& v) { return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z())); }
+btQuaternion bt(const Quat& q) { return btQuaternion(btScalar(q.x()), btScalar(q.y()), btScalar(q.z()), btScalar(q.w())); }
+
+struct BulletWorld {
+    btDefaultCollisionConfiguration config;
+    btCollisionDispatcher dispatcher{&config};
+    btDbvtBroadphase broadphase;
+    btSequentialImpulseConstraintSolver solver;
+    btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+    std::vector<std::unique_ptr<btCollisionShape>> shapes;
+    std::vector<std::unique_ptr<btTriangleIndexVertexArray>> mesh_data;
+    std::vector<std::vector<int>> mesh_indices;
+    std::vector<std::vector<btScalar>> mesh_vertices;
+    std::vector<std::unique_ptr<btDefaultMotionState>> motion;
+    std::vector<std::unique_ptr<btRigidBody>> bodies;
+
+    ~BulletWorld() {
+        for (auto& b : bodies) world.removeRigidBody(b.get());
+    }
+
+    btCollisionShape* make_shape(const Shape& s) {
+        std::unique_ptr<btCollisionShape> out;
+        switch (s.type) {
+            case ShapeType::Sphere: out = std::make_unique<btSphereShape>(btScalar(s.radius)); break;
+            case ShapeType::Box: out = std::make_unique<btBoxShape>(bt(s.half_extents)); break;
+            case ShapeType::Capsule:
+                out = std::make_unique<btCapsuleShape>(btScalar(s.radius), btScalar(2 * s.half_height));
+                break;
+            case ShapeType::ConvexHull: {
+                auto hull = std::make_unique<btConvexHullShape>();
+                for (const Vec3& v : s.hull->vertices) hull->addPoint(bt(v), false);
+                hull->recalcLocalAabb();
+                out = std::move(hull);
+                break;
+            }
+            case ShapeType::Plane:
+                out = std::make_unique<btStaticPlaneShape>(bt(s.normal), btScalar(s.offset));
+                break;
+            case ShapeType::TriangleMesh: {
+                mesh_indices.emplace_back(s.mesh->indices.begin(), s.mesh->indices.end());
+                mesh_vertices.emplace_back();
+                for (const Vec3& v : s.mesh->vertices)
+                    for (int k = 0; k < 3; ++k) mesh_vertices.back().push_back(btScalar(v[k]));
+                mesh_data.push_back(std::make_unique<btTriangleIndexVertexArray>(
+                    int(mesh_indices.back().size() / 3), mesh_indices.back().data(), 3 * int(sizeof(int)),
+                    int(s.mesh->vertices.size()), mesh_vertices.back().data(), 3 * int(sizeof(btScalar))));
+                out = std::make_unique<btBvhTriangleMeshShape>(mesh_data.back().get(), true);
+                break;
+            }
+            case ShapeType::Compound: {
+                auto c = std::make_unique<btCompoundShape>();
+                for (const CompoundChild& ch : *s.children)
+                    c->addChildShape(btTransform(bt(ch.local.q), bt(ch.local.p)), make_shape(*ch.shape));
+                out = std::move(c);
+                break;
+            }
+            default: throw std::runtime_error("bullet peer: unsupported shape");
+        }
+        shapes.push_back(std::move(out));
+        return shapes.back().get();
+    }
+};
+
+}  // namespace
+
+RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations) {
+    BulletWorld bw;
+    const RigidSettings& rs = scene.settings.rigid;
+    bw.world.setGravity(bt(rs.gravity));
+    bw.world.getSolverInfo().m_numIterations = iterations;
+    std::vector<btRigidBody*> dynamic;
+    for (const SceneBody& sb : scene.bodies) {
+        const BodyDef& d = sb.def;
+        btCollisionShape* shape = bw.make_shape(d.shape);
+        btScalar mass = 0;
+        btVector3 inertia(0, 0, 0);
+        if (d.type == BodyType::Dynamic) {
+            // Bullet places the shape at the body origin; Sinew's generators use centred shapes, so
+            // origin and centre of mass coincide for every benchmark body.
+            mass = btScalar(d.mass > 0 ? d.mass : 1);
+            shape->calculateLocalInertia(mass, inertia);
+        }
+        bw.motion.push_back(std::make_unique<btDefaultMotionState>(btTransform(bt(d.pose.q), bt(d.pose.p))));
+        btRigidBody::btRigidBodyConstructionInfo info(mass, bw.motion.back().get(), shape, inertia);
+        // Bullet multiplies the two bodies' friction; the square root makes the per-contact value the
+        // geometric mean, the same mixing rule as Sinew (0.6 and 0.6 give 0.6).
+        info.m_friction = btScalar(std::sqrt(d.material.friction));
+        info.m_restitution = btScalar(d.material.restitution);
+        info.m_linearDamping = btScalar(d.linear_damping);
+        info.m_angularDamping = btScalar(d.angular_damping);
+        bw.bodies.push_back(std::make_unique<btRigidBody>(info));
+        btRigidBody* body = bw.bodies.back().get();
+        if (d.type == BodyType::Kinematic) {
+            body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
+        }
+        if (d.type == BodyType::Dynamic) {
+            body->setLinearVelocity(bt(d.linear_velocity));
+            body->setAngularVelocity(bt(d.angular_velocity));
+            if (!rs.sleeping) body->setActivationState(DISABLE_DEACTIVATION);
+            dynamic.push_back(body);
+        }
+        bw.world.addRigidBody(body);
+    }
+    auto positions = [&] {
+        std::vector<Vec3> p(dynamic.size());
+        for (std::size_t i = 0; i < dynamic.size(); ++i) {
+            const btVector3& o = dynamic[i]->getWorldTransform().getOrigin();
+            p[i] = Vec3(Real(o.x()), Real(o.y()), Real(o.z()));
+        }
+        return p;
+    };
+    DriftMeter meter;
+    meter.start(positions());
+    RigidRun run;
+    run.scene = scene.name;
+    run.engine = "bullet";
+    run.variant = "default";
+    run.bodies = int(dynamic.size());
+    run.iterations = iterations;
+    std::vector<double> ms;
+    ms.reserve(steps);
+    const btScalar h = btScalar(scene.settings.time_step);
+    for (int i = 0; i < steps; ++i) {
+        auto t0 = std::chrono::steady_clock::now();
+        bw.world.stepSimulation(h, 0);
+        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        std::vector<Vec3> p = positions();
+        for (const Vec3& x : p)
+            if (!is_finite(x)) run.finite = false;
+        meter.sample(p);
+        ++run.steps;
+        if (!run.finite) break;
+    }
+    run.ms_per_step_median = median(ms);
+    run.max_drift = meter.max_drift();
+    run.max_drop = meter.max_drop();
+    run.stood = run.finite && run.max_drift < 0.05;
+    run.collapsed = !run.finite || run.max_drop > 0.5;
+    return run;
+}
+
+}  // namespace sinew::bench

@@ -1,0 +1,32 @@
+// Recording a run for playback: the header names every body and its shape, then one line per frame holds
+// each body's transform. Format: docs/record-format.md.
+#pragma once
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "engine/world/scene.hpp"
+
+namespace sinew::tool {
+
+constexpr const char* kRecordFormat = "sinew-record";
+constexpr int kRecordVersion = 1;
+
+class Recorder {
+public:
+    /// Opens `path` and writes the header line. Throws std::runtime_error if the file cannot be written.
+    Recorder(const std::string& path, const SceneDesc& scene, const World& world, const std::vector<BodyId>& ids);
+    /// Appends one frame line with the current transform of every body, in header order.
+    void write_frame(const World& world, std::uint64_t frame);
+    /// Flushes and checks the stream; throws std::runtime_error on a write failure (disk full, ...).
+    void finish();
+
+private:
+    std::string path_;
+    std::ofstream out_;
+    std::vector<BodyId> ids_;
+    std::string line_;  // reused for every frame, so recording allocates nothing per frame once warm
+};
+
+}  // namespace sinew::tool
