@@ -19,9 +19,13 @@ public:
     /// Whether DetectCollisions should place bodies at their candidate poses x + h v (Guendelman) rather
     /// than their current poses (Catto).
     virtual bool detects_at_candidate_poses() const { return false; }
+    /// Whether the solver integrates velocities and positions itself inside SolveVelocities (sub-stepping
+    /// solvers); the system then skips its own integration in the other stages.
+    virtual bool integrates_itself() const { return false; }
 };
 
 std::unique_ptr<RigidSolver> make_sequential_impulse_solver();
 std::unique_ptr<RigidSolver> make_newton_impulse_solver();
+std::unique_ptr<RigidSolver> make_soft_step_solver();
 
 }  // namespace sinew

@@ -35,7 +35,12 @@ const char* solver_kind_name(RigidSolverKind k) {
 }
 
 const char* position_correction_name(PositionCorrection c) {
-    return c == PositionCorrection::Baumgarte ? "baumgarte" : "split_impulse";
+    switch (c) {
+        case PositionCorrection::Baumgarte: return "baumgarte";
+        case PositionCorrection::SplitImpulse: return "split_impulse";
+        case PositionCorrection::SoftStep: return "soft_step";
+    }
+    return "unknown";
 }
 
 RigidSystem::RigidSystem(const RigidSettings& settings) {
@@ -66,8 +71,27 @@ void RigidSystem::set_settings(const RigidSettings& s) {
         bad("newton iterations", "must be >= 0 (collision) and >= 1 (contact)");
     if (!(s.newton_projection_fraction >= 0 && s.newton_projection_fraction <= 1))
         bad("newton projection_fraction", "must be in [0, 1], got " + fmt(s.newton_projection_fraction));
-    if (!solver_ || s.solver != settings_.solver)
-        solver_ = s.solver == RigidSolverKind::Newton ? make_newton_impulse_solver() : make_sequential_impulse_solver();
+    if (s.substeps < 1 || s.substeps > 64) bad("substeps", "must be in [1, 64], got " + std::to_string(s.substeps));
+    if (!(s.contact_hertz > 0) || !is_finite(s.contact_hertz)) bad("contact_hertz", "must be finite and > 0");
+    if (!(s.contact_damping_ratio >= 0) || !is_finite(s.contact_damping_ratio))
+        bad("contact_damping_ratio", "must be finite and >= 0");
+    if (!(s.contact_push_velocity > 0) || !is_finite(s.contact_push_velocity))
+        bad("contact_push_velocity", "must be finite and > 0");
+    // The solver object follows the method; impulses cached by one are not meaningful to another.
+    auto method = [](const RigidSettings& x) {
+        if (x.solver == RigidSolverKind::Newton) return 0;
+        return x.correction == PositionCorrection::SoftStep ? 1 : 2;
+    };
+    if (!solver_ || method(s) != method(settings_)) {
+        if (s.solver == RigidSolverKind::Newton) solver_ = make_newton_impulse_solver();
+        else if (s.correction == PositionCorrection::SoftStep) solver_ = make_soft_step_solver();
+        else solver_ = make_sequential_impulse_solver();
+        for (ContactManifold& c : contacts_)
+            for (int k = 0; k < c.manifold.count; ++k) {
+                c.manifold.points[k].normal_impulse = 0;
+                c.manifold.points[k].tangent_impulse[0] = c.manifold.points[k].tangent_impulse[1] = 0;
+            }
+    }
     settings_ = s;
 }
 
@@ -314,7 +338,7 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
         case Stage::IntegrateVelocities:
             prepare_mass_state();
             solver_->before_integrate_velocities(*this, ctx.h);
-            integrate_velocities(ctx.h);
+            if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
             break;
         case Stage::DetectCollisions: detect_collisions(ctx.h); break;
         case Stage::SolveVelocities: solver_->solve_velocities(*this, ctx.h); break;
@@ -389,48 +413,30 @@ void RigidSystem::detect_collisions(Real h) {
             continue;
         }
         Transform xa = detection_transform(a, h), xb = detection_transform(b, h);
-        scratch_.clear();
-        collide(shape_[a], xa, shape_[b], xb, margin, scratch_);
-        if (scratch_.empty()) continue;
-        Real friction = std::sqrt(material_[a].friction * material_[b].friction);
-        Real restitution = std::max(material_[a].restitution, material_[b].restitution);
-        for (Manifold& m : scratch_) {
-            for (int k = 0; k < m.count; ++k) {
-                ContactPoint& p = m.points[k];
-                p.local_a = xa.apply_inverse(p.position);
-                p.local_b = xb.apply_inverse(p.position);
-            }
-            // Warm starting: carry impulses from the cached manifold with the same sub_key, matching
-            // points by feature id, else by proximity in A's local frame (seed 001 ch.5).
-            if (settings_.warm_starting) {
-                for (std::size_t i = prev_i; i < prev_end; ++i) {
-                    const Manifold& old = prev_contacts_[i].manifold;
-                    if (old.sub_key != m.sub_key) continue;
-                    for (int k = 0; k < m.count; ++k) {
-                        ContactPoint& p = m.points[k];
-                        int best = -1;
-                        Real best_d2 = match_dist2;
-                        for (int j = 0; j < old.count; ++j) {
-                            if (old.points[j].feature_id == p.feature_id) {
-                                best = j;
-                                break;
-                            }
-                            Real d2 = (old.points[j].local_a - p.local_a).squaredNorm();
-                            if (d2 < best_d2) {
-                                best_d2 = d2;
-                                best = j;
-                            }
-                        }
-                        if (best >= 0) {
-                            p.normal_impulse = old.points[best].normal_impulse;
-                            p.tangent_impulse[0] = old.points[best].tangent_impulse[0];
-                            p.tangent_impulse[1] = old.points[best].tangent_impulse[1];
-                        }
-                    }
-                    break;
+        const Transform relative = xa.inverse() * xb;
+        if (prev_end > prev_i && can_reuse(prev_contacts_[prev_i].relative, relative)) {
+            // Body-pair cache (as Jolt does): the pair moved as one within 1 mm and 0.5 degrees since
+            // its manifold was computed, so the cached points are carried with the bodies instead of
+            // running the narrow phase again. Points stay attached to A and B; the depth follows the
+            // bodies' relative motion along the normal. Warm-start impulses are kept as they are.
+            for (std::size_t i = prev_i; i < prev_end; ++i) {
+                ContactManifold c = prev_contacts_[i];
+                Manifold& m = c.manifold;
+                m.normal = xa.q * c.normal_local_a;
+                for (int k = 0; k < m.count; ++k) {
+                    ContactPoint& p = m.points[k];
+                    Vec3 pa = xa.apply(p.local_a), pb = xb.apply(p.local_b);
+                    p.position = Real(0.5) * (pa + pb);
+                    p.depth = c.detected_depth[k] - (pb - pa).dot(m.normal);
+                    if (!settings_.warm_starting) p.normal_impulse = p.tangent_impulse[0] = p.tangent_impulse[1] = 0;
                 }
+                contacts_.push_back(c);
             }
-            contacts_.push_back({a, b, friction, restitution, m});
+        } else {
+            scratch_.clear();
+            collide(shape_[a], xa, shape_[b], xb, margin, scratch_);
+            if (scratch_.empty()) continue;
+            add_fresh_manifolds(a, b, xa, xb, relative, prev_i, prev_end);
         }
         // A sleeping body touched by an awake one wakes with its whole island.
         if (asleep_a != asleep_b) wake_island(asleep_a ? a : b);
@@ -449,11 +455,74 @@ Transform RigidSystem::detection_transform(std::uint32_t s, Real h) const {
     return {x - q * local_com_[s], q};
 }
 
+bool RigidSystem::can_reuse(const Transform& cached, const Transform& now) const {
+    const Real max_move = Real(1e-3);         // m
+    const Real min_cos_half = Real(0.9999905); // cos(0.25 degree): 0.5 degree of relative rotation
+    return (now.p - cached.p).squaredNorm() < max_move * max_move && std::abs(now.q.dot(cached.q)) > min_cos_half;
+}
+
+void RigidSystem::add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Transform& xa, const Transform& xb,
+                                  const Transform& relative, std::size_t prev_i, std::size_t prev_end) {
+    const Real match_dist2 = (2 * settings_.contact_margin) * (2 * settings_.contact_margin);
+    Real friction = std::sqrt(material_[a].friction * material_[b].friction);
+    Real restitution = std::max(material_[a].restitution, material_[b].restitution);
+    for (Manifold& m : scratch_) {
+        for (int k = 0; k < m.count; ++k) {
+            ContactPoint& p = m.points[k];
+            p.local_a = xa.apply_inverse(p.position);
+            p.local_b = xb.apply_inverse(p.position);
+        }
+        // Warm starting: carry impulses from the cached manifold with the same sub_key, matching
+        // points by feature id, else by proximity in A's local frame (seed 001 ch.5).
+        if (settings_.warm_starting) {
+            for (std::size_t i = prev_i; i < prev_end; ++i) {
+                const Manifold& old = prev_contacts_[i].manifold;
+                if (old.sub_key != m.sub_key) continue;
+                for (int k = 0; k < m.count; ++k) {
+                    ContactPoint& p = m.points[k];
+                    int best = -1;
+                    Real best_d2 = match_dist2;
+                    for (int j = 0; j < old.count; ++j) {
+                        if (old.points[j].feature_id == p.feature_id) {
+                            best = j;
+                            break;
+                        }
+                        Real d2 = (old.points[j].local_a - p.local_a).squaredNorm();
+                        if (d2 < best_d2) {
+                            best_d2 = d2;
+                            best = j;
+                        }
+                    }
+                    if (best >= 0) {
+                        p.normal_impulse = old.points[best].normal_impulse;
+                        p.tangent_impulse[0] = old.points[best].tangent_impulse[0];
+                        p.tangent_impulse[1] = old.points[best].tangent_impulse[1];
+                    }
+                }
+                break;
+            }
+        }
+        ContactManifold c;
+        c.body_a = a;
+        c.body_b = b;
+        c.friction = friction;
+        c.restitution = restitution;
+        c.manifold = m;
+        c.relative = relative;
+        c.normal_local_a = xa.q.conjugate() * m.normal;
+        for (int k = 0; k < m.count; ++k) c.detected_depth[k] = m.points[k].depth;
+        contacts_.push_back(c);
+    }
+}
+
 void RigidSystem::integrate_positions(Real h) {
+    const bool integrate = !solver_->integrates_itself();
     for (std::uint32_t s = 0; s < generation_.size(); ++s) {
         if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
-        state_.x[s] += h * state_.v[s];
-        state_.q[s] = integrate_rotation(state_.q[s], state_.w[s], h);
+        if (integrate) {
+            state_.x[s] += h * state_.v[s];
+            state_.q[s] = integrate_rotation(state_.q[s], state_.w[s], h);
+        }
         state_.force[s].setZero();
         state_.torque[s].setZero();
     }

@@ -31,6 +31,12 @@ struct ContactManifold {
     Real friction = 0;
     Real restitution = 0;
     Manifold manifold;
+    // Where the narrow phase last ran for this pair, so a pair whose relative pose barely changed can
+    // reuse its manifold (Jolt's body-pair cache): B's origin in A's frame, the normal in A's frame, and
+    // each point's depth at that time.
+    Transform relative;
+    Vec3 normal_local_a = Vec3::UnitY();
+    Real detected_depth[Manifold::kMaxPoints] = {0, 0, 0, 0};
 };
 
 class RigidSolver;
@@ -106,11 +112,17 @@ public:
     State& state() { return state_; }
     const State& state() const { return state_; }
 
+    /// Gravity, forces and damping into the velocities of moving bodies over h (solvers that sub-step
+    /// call it once per sub-step).
+    void integrate_velocities(Real h);
+
 private:
     void check(BodyId id, const char* where) const;
     void prepare_mass_state();
-    void integrate_velocities(Real h);
     void detect_collisions(Real h);
+    bool can_reuse(const Transform& cached, const Transform& now) const;
+    void add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Transform& xa, const Transform& xb,
+                             const Transform& relative, std::size_t prev_i, std::size_t prev_end);
     /// Where shapes are placed for collision detection: current poses, or candidate poses x + h v.
     Transform detection_transform(std::uint32_t slot, Real h) const;
     void solve_velocities(Real h);

@@ -278,3 +278,15 @@ TEST_CASE("triangle mesh validation", "[mesh]") {
     bad[2].y() = std::numeric_limits<Real>::quiet_NaN();
     REQUIRE_THROWS_WITH(make_triangle_mesh(bad, {0, 2, 1}), Contains("vertex 2") && Contains("not finite"));
 }
+
+TEST_CASE("hull with more than 65535 vertices is refused", "[hull][long]") {
+    // 90000 points on a sphere: nearly all are extreme, more than 16-bit face indices can address.
+    std::mt19937 rng(5);
+    std::normal_distribution<Real> g(0, 1);
+    std::vector<Vec3> pts;
+    while (pts.size() < 90000) {
+        Vec3 d(g(rng), g(rng), g(rng));
+        if (d.norm() > Real(1e-3)) pts.push_back(d.normalized());
+    }
+    REQUIRE_THROWS_WITH(make_convex_hull(pts), Catch::Matchers::Contains("at most 65535"));
+}

@@ -110,7 +110,8 @@ bool capsule_capsule(const Shape& a, const Transform& xa, const Shape& b, const 
     const Vec3 n = unit_direction(pa, pb, fallback, scale);
     m.normal = n;
 
-    // Lying along each other: the two ends of the overlap of B's segment projected on A's.
+    // Lying along each other (both segments longer than rounding noise): the two ends of the overlap of
+    // B's segment projected on A's.
     if (l1 > kEpsilon && l2 > kEpsilon && cross.squaredNorm() <= kParallelSine * kParallelSine * l1 * l2) {
         Real u0 = (b0 - a0).dot(d1) / l1;
         Real u1 = (b0 + d2 - a0).dot(d1) / l1;

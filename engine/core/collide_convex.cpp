@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "engine/core/narrowphase.hpp"
@@ -35,9 +36,11 @@ namespace {
 using V3d = Eigen::Vector3d;
 using M3d = Eigen::Matrix3d;
 
-// A face is a reference-face candidate only if its normal is within ~5.7 degrees of the contact normal;
-// beyond that the contact is edge-edge or vertex-edge and one point is the honest answer.
-constexpr double kFaceAlignCos = 0.995;
+// A face is a reference-face candidate only if its normal is within ~0.8 degrees of the contact normal.
+// A face contact's normal (vertex-face, face-face) *is* the face normal up to EPA's tolerance; anything
+// further off is an edge-edge or edge-vertex contact where one point is the honest answer, and snapping
+// it to a face would under-report the overlap along the snapped normal.
+constexpr double kFaceAlignCos = 0.9999;
 // Shape B's face becomes the reference only if clearly better aligned than A's, so the choice (and with
 // it the feature ids) does not flip between two equally good faces under tiny motion (Box2D's bias).
 constexpr double kReferenceBias = 1e-3;
@@ -427,21 +430,34 @@ void ccd_support(const void* obj, const ccd_vec3_t* dir, ccd_vec3_t* out) {
     out->v[2] = s.z();
 }
 
-/// Penetration normal (A to B) and depth of the shapes by GJK+EPA. `round`: run on the full shapes
-/// rather than on the cores. Returns false if libccd finds no overlap or no usable direction.
-bool ccd_penetration(const Placed& A, const Placed& B, bool round, double extra, V3d& n, double& depth, V3d& pos) {
+void ccd_center(const void* obj, ccd_vec3_t* out) {
+    const V3d c = static_cast<const CcdObject*>(obj)->shape->center();
+    out->v[0] = c.x();
+    out->v[1] = c.y();
+    out->v[2] = c.z();
+}
+
+/// Penetration normal (A to B) and depth of the shapes by libccd: GJK+EPA, or MPR if `mpr`. `round`: run
+/// on the full shapes rather than on the cores. Returns false if libccd finds no overlap or no usable
+/// direction.
+bool ccd_penetration(const Placed& A, const Placed& B, bool round, double extra, bool mpr, V3d& n, double& depth,
+                     V3d& pos) {
     CcdObject oa{&A, round, extra}, ob{&B, round, 0.0};
     ccd_t ccd;
     CCD_INIT(&ccd);
     ccd.support1 = ccd_support;
     ccd.support2 = ccd_support;
+    ccd.center1 = ccd_center;
+    ccd.center2 = ccd_center;
     ccd.max_iterations = 200;
     const double scale = A.size + B.size;
     ccd.epa_tolerance = 1e-7 * scale;
+    ccd.mpr_tolerance = 1e-7 * scale;
     ccd.dist_tolerance = 1e-10 * scale;
     ccd_real_t d = 0;
     ccd_vec3_t dir, p;
-    if (ccdGJKPenetration(&oa, &ob, &ccd, &d, &dir, &p) != 0) return false;
+    const int rc = mpr ? ccdMPRPenetration(&oa, &ob, &ccd, &d, &dir, &p) : ccdGJKPenetration(&oa, &ob, &ccd, &d, &dir, &p);
+    if (rc != 0) return false;
     // libccd: translating B by depth * dir separates the shapes, so dir points from A to B.
     n = V3d(dir.v[0], dir.v[1], dir.v[2]);
     const double len = n.norm();
@@ -477,21 +493,42 @@ bool query_contact(const Placed& A, const Placed& B, double margin, ContactQuery
     // Cores overlap. EPA on the cores is exact for polytopes; it needs a solid Minkowski difference, so
     // if neither core is a solid (point, segment, triangle pairs) run it on the rounded shapes instead.
     const bool solid_core = A.kind == Kind::Box || A.kind == Kind::Hull || B.kind == Kind::Box || B.kind == Kind::Hull;
-    V3d n, pos;
+    // Overlap of the full shapes along unit n: how far B must move along n to come free. Exact for any n.
+    auto overlap_along = [&](const V3d& dir) {
+        return dir.dot(A.core_support(dir)) - dir.dot(B.core_support(-dir)) + rsum;
+    };
+    V3d n = V3d::UnitY(), pos = 0.5 * (A.center() + B.center());
     double d = 0;
-    bool ok = ccd_penetration(A, B, !solid_core, 0.0, n, d, pos);
+    bool ok = ccd_penetration(A, B, !solid_core, 0.0, false, n, d, pos);
     if (!ok) {
         // Exactly touching cores can leave EPA without a usable direction; rounding A slightly makes the
         // overlap proper, and the rounding is subtracted from the depth.
-        ok = ccd_penetration(A, B, !solid_core, 1e-4 * (A.size + B.size), n, d, pos);
+        ok = ccd_penetration(A, B, !solid_core, 1e-4 * (A.size + B.size), false, n, d, pos);
     }
-    if (!ok) {
-        n = B.center() - A.center();
-        n = n.squaredNorm() > 0 ? V3d(n.normalized()) : V3d::UnitY();
-        d = 0;
-        pos = 0.5 * (A.center() + B.center());
+    double depth = ok ? overlap_along(n) : std::numeric_limits<double>::infinity();
+    if (!ok || depth > (solid_core ? d + rsum : d) + 1e-5 * (A.size + B.size)) {
+        // libccd's EPA can stop short on a deep overlap: its depth is then below the overlap along its
+        // own normal. Fall back to the least overlapping of MPR's direction (Snethen, "XenoCollide", Game
+        // Programming Gems 7) and the face normals of both shapes: not always the minimum translation
+        // (edge-edge axes are not tried), but a valid, conservative one.
+        auto consider = [&](const V3d& dir) {
+            const double ov = overlap_along(dir);
+            if (ov < depth) {
+                depth = ov;
+                n = dir;
+            }
+        };
+        V3d mn, mpos;
+        double md = 0;
+        if (ccd_penetration(A, B, !solid_core, 0.0, true, mn, md, mpos)) consider(mn);
+        for (int i = 0; i < A.face_count(); ++i) consider(A.face_normal(i));
+        for (int i = 0; i < B.face_count(); ++i) consider(-B.face_normal(i));
+        if (!std::isfinite(depth)) {  // two round shapes with coincident cores: any direction will do
+            n = B.center() - A.center();
+            n = n.squaredNorm() > 0 ? V3d(n.normalized()) : V3d::UnitY();
+            depth = overlap_along(n);
+        }
     }
-    const double depth = solid_core ? d + rsum : d;
     if (-depth > margin) return false;
     q.n = n;
     q.depth = depth;

@@ -24,9 +24,18 @@ namespace {
 
 using V3 = Eigen::Vector3d;
 
-/// Relative tolerance of the hull: far above the rounding error of the input (`Real`) and of the double
-/// arithmetic, far below any feature size that matters to a physics hull.
-double relative_tolerance() { return std::max(64.0 * double(kEpsilon), 1e-10); }
+/// Relative tolerance of the hull, the same in both precisions: 64 float ulps, far above the rounding of
+/// float input and of the double arithmetic, far below any feature that matters to a physics hull. A
+/// smaller one (double input) only buys slivers: a triangle whose apex is nearly on its opposite edge
+/// has a plane too ill-conditioned to decide which side of it a distant point is on.
+constexpr double kRelativeTolerance = 64.0 * std::numeric_limits<float>::epsilon();
+/// If the hull fails its convexity check (rounding beat the tolerance), it is rebuilt with a tolerance
+/// this many times larger, a few times at most.
+constexpr double kToleranceGrowth = 10.0;
+constexpr int kAttempts = 4;
+
+/// Internal: the construction met a numerically inconsistent configuration; retried at a larger tol.
+struct NumericalFailure {};
 
 constexpr std::size_t kMaxHullVertices = 65535;  // faces store uint16 vertex indices
 
@@ -52,6 +61,8 @@ public:
     QuickHull(const std::vector<V3>& pts, double tol) : p_(pts), tol_(tol) {}
 
     void build();
+    /// Every edge convex within tol: the check that rounding did not fold a triangle over.
+    bool locally_convex() const;
     /// Merges coplanar triangles and writes the polygonal hull.
     void extract(ConvexHullData& out) const;
 
@@ -65,6 +76,8 @@ private:
     int add_tri(int a, int b, int c);
     void initial_simplex(int& i0, int& i1, int& i2, int& i3) const;
     void add_point(int fi, int eye);
+    void expand();
+    bool relocate_near_points();
 };
 
 int QuickHull::add_tri(int a, int b, int c) {
@@ -150,11 +163,13 @@ void QuickHull::build() {
                     if (tris_[g].v[k] == tris_[f].v[(e + 1) % 3] && tris_[g].v[(k + 1) % 3] == tris_[f].v[e])
                         tris_[f].adj[e] = g;
 
-    // Conflict lists: each point goes to the face it is furthest above (if any by more than tol).
+    // Conflict lists: each point goes to the face it is furthest above, if it is above any. Points at
+    // most tol above are kept too (never as eyes): they may turn out to lie beyond a sharp edge of an
+    // early, thin hull, further out than tol from the final one (see relocate_near_points).
     for (int i = 0; i < static_cast<int>(p_.size()); ++i) {
         if (i == i0 || i == i1 || i == i2 || i == i3) continue;
         int bf = -1;
-        double bd = tol_;
+        double bd = 0;
         for (int f = 0; f < 4; ++f) {
             double d = dist(tris_[f], i);
             if (d > bd) {
@@ -165,11 +180,36 @@ void QuickHull::build() {
         if (bf >= 0) tris_[bf].outside.push_back(i);
     }
 
+    // Expansion, then a check that no kept near point has ended up far outside; a few rounds at most.
+    for (int round = 0; round < 8; ++round) {
+        expand();
+        if (!relocate_near_points()) break;
+    }
+}
+
+bool QuickHull::locally_convex() const {
+    for (const HullTri& t : tris_) {
+        if (!t.alive) continue;
+        // A triangle within tol of a line (collinear input points make them) has no meaningful plane.
+        double longest = 0;
+        for (int e = 0; e < 3; ++e) longest = std::max(longest, (p_[t.v[(e + 1) % 3]] - p_[t.v[e]]).norm());
+        if (t.area2 <= tol_ * longest) continue;
+        for (int e = 0; e < 3; ++e) {
+            const HullTri& u = tris_[t.adj[e]];
+            // The neighbour's vertex off the shared edge must not be above this triangle's plane.
+            for (int v : u.v)
+                if (v != t.v[e] && v != t.v[(e + 1) % 3] && dist(t, v) > tol_) return false;
+        }
+    }
+    return true;
+}
+
+void QuickHull::expand() {
     // New triangles are appended, and points only move to new triangles, so one forward pass suffices.
     for (std::size_t f = 0; f < tris_.size(); ++f) {
-        while (tris_[f].alive && !tris_[f].outside.empty()) {
-            int eye = tris_[f].outside[0];
-            double bd = dist(tris_[f], eye);
+        while (tris_[f].alive) {
+            int eye = -1;
+            double bd = tol_;
             for (int i : tris_[f].outside) {
                 double d = dist(tris_[f], i);
                 if (d > bd) {
@@ -177,9 +217,50 @@ void QuickHull::build() {
                     eye = i;
                 }
             }
+            if (eye < 0) break;
             add_point(static_cast<int>(f), eye);
         }
     }
+}
+
+bool QuickHull::relocate_near_points() {
+    // A point kept at most tol above its triangle can still be far above another one (beyond a sharp
+    // edge). The triangles a point sees form a connected patch containing its own, so a walk over that
+    // patch finds the one it is furthest above.
+    bool moved = false;
+    std::vector<int> patch;
+    for (std::size_t f = 0; f < tris_.size(); ++f) {
+        if (!tris_[f].alive) continue;
+        for (std::size_t k = 0; k < tris_[f].outside.size();) {
+            const int i = tris_[f].outside[k];
+            const int mark = ++mark_;
+            patch.assign(1, static_cast<int>(f));
+            tris_[f].mark = mark;
+            int best = static_cast<int>(f);
+            double bd = dist(tris_[f], i);
+            for (std::size_t q = 0; q < patch.size(); ++q)
+                for (int g : tris_[patch[q]].adj) {
+                    if (tris_[g].mark == mark) continue;
+                    tris_[g].mark = mark;
+                    const double d = dist(tris_[g], i);
+                    if (d <= 0) continue;
+                    patch.push_back(g);
+                    if (d > bd) {
+                        bd = d;
+                        best = g;
+                    }
+                }
+            if (best != static_cast<int>(f) && bd > tol_) {
+                tris_[best].outside.push_back(i);
+                tris_[f].outside[k] = tris_[f].outside.back();
+                tris_[f].outside.pop_back();
+                moved = true;
+            } else {
+                ++k;
+            }
+        }
+    }
+    return moved;
 }
 
 void QuickHull::add_point(int fi, int eye) {
@@ -241,7 +322,7 @@ void QuickHull::add_point(int fi, int eye) {
                     far = static_cast<int>(g);
                 }
             }
-        if (far < 0) throw ShapeError("convex hull construction failed: a point sees the whole hull");
+        if (far < 0) throw NumericalFailure{};  // the eye sees the whole hull
         const int hid = ++mark_;
         std::vector<int> hidden{far};
         tris_[far].mark = hid;
@@ -256,9 +337,7 @@ void QuickHull::add_point(int fi, int eye) {
                 tris_[g].mark = vis;
                 visible.push_back(static_cast<int>(g));
             }
-        if (!find_horizon())
-            throw ShapeError("convex hull construction failed: numerically degenerate input near point " +
-                             std::to_string(eye) + " (the visible region's horizon is not one loop)");
+        if (!find_horizon()) throw NumericalFailure{};
     }
 
     // 4. Orphaned conflict points, then retire the visible triangles.
@@ -289,7 +368,7 @@ void QuickHull::add_point(int fi, int eye) {
     // 6. Reassign orphans to the new triangle they are furthest above; the rest are inside.
     for (int i : orphans) {
         int bf = -1;
-        double bd = tol_;
+        double bd = 0;
         for (int k = 0; k < m; ++k) {
             double d = dist(tris_[first + k], i);
             if (d > bd) {
@@ -446,12 +525,24 @@ Shape make_convex_hull(const std::vector<Vec3>& points) {
     // because the vertices are stored in the caller's frame and rounded there (so tol stays >= 8 ulps of
     // the coordinates).
     const double scale = box.diagonal().norm() + box.center().norm() * 0.125;
-    const double tol = relative_tolerance() * scale;
+    double tol = kRelativeTolerance * scale;
 
-    QuickHull qh(pts, tol);
-    qh.build();
     auto hull = std::make_shared<ConvexHullData>();
-    qh.extract(*hull);
+    for (int attempt = 0;; ++attempt, tol *= kToleranceGrowth) {
+        if (attempt == kAttempts)
+            throw ShapeError("convex hull construction failed: the points are numerically degenerate (nearly "
+                             "coplanar or collinear beyond what a tolerance of " + fmt(tol / kToleranceGrowth) +
+                             " resolves)");
+        QuickHull qh(pts, tol);
+        try {
+            qh.build();
+        } catch (const NumericalFailure&) {
+            continue;
+        }
+        if (!qh.locally_convex()) continue;
+        qh.extract(*hull);
+        break;
+    }
 
     Shape s;
     s.type = ShapeType::ConvexHull;

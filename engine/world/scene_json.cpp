@@ -140,7 +140,7 @@ private:
     std::string error_, error_path_;
 };
 
-// ---- a cursor over the DOM that knows its pointer ------------------------------------------------
+// ---- wording of messages --------------------------------------------------------------------------
 
 // Extra advice when a number was written as a string.
 std::string quoted_number_hint(const Json& j) {

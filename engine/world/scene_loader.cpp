@@ -4,7 +4,6 @@
 // worst kind of scene bug, so unknown keys are errors everywhere, and every error names the offending
 // value by its RFC 6901 JSON pointer (the JSON plumbing that makes this possible is scene_json.hpp).
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -94,11 +93,13 @@ private:
         if (auto solver = s.find("solver")) {
             const Node& o = *solver;
             o.allow_keys({"kind", "velocity_iterations", "warm_starting", "position_correction", "baumgarte", "slop",
-                          "restitution_threshold", "contact_margin", "max_correction_velocity", "newton"});
+                          "restitution_threshold", "contact_margin", "max_correction_velocity", "newton", "substeps",
+                          "contact_hertz", "contact_damping_ratio", "contact_push_velocity"});
             static const std::pair<const char*, RigidSolverKind> kinds[] = {
                 {"sequential_impulse", RigidSolverKind::SequentialImpulse}, {"newton", RigidSolverKind::Newton}};
             static const std::pair<const char*, PositionCorrection> corrections[] = {
-                {"baumgarte", PositionCorrection::Baumgarte}, {"split_impulse", PositionCorrection::SplitImpulse}};
+                {"baumgarte", PositionCorrection::Baumgarte}, {"split_impulse", PositionCorrection::SplitImpulse},
+                {"soft_step", PositionCorrection::SoftStep}};
             r.solver = read_enum(o, "kind", r.solver, kinds);
             r.velocity_iterations = read_int(o, "velocity_iterations", r.velocity_iterations, 1, 1000);
             r.warm_starting = read_bool(o, "warm_starting", r.warm_starting);
@@ -112,6 +113,10 @@ private:
                 o.get("contact_margin").fail("contact_margin must be < 1 m, got " + o.get("contact_margin").json().dump());
             r.max_correction_velocity =
                 read_real(o, "max_correction_velocity", r.max_correction_velocity, Range::Positive);
+            r.substeps = read_int(o, "substeps", r.substeps, 1, 64);
+            r.contact_hertz = read_real(o, "contact_hertz", r.contact_hertz, Range::Positive);
+            r.contact_damping_ratio = read_real(o, "contact_damping_ratio", r.contact_damping_ratio, Range::NonNegative);
+            r.contact_push_velocity = read_real(o, "contact_push_velocity", r.contact_push_velocity, Range::Positive);
             if (auto newton = o.find("newton")) {
                 const Node& n = *newton;
                 n.allow_keys({"collision_iterations", "contact_iterations", "shock_propagation", "projection_fraction"});

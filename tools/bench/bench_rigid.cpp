@@ -30,10 +30,14 @@ struct SinewVariant {
     PositionCorrection correction;
 };
 
+// Soft step runs iterations/2 sub-steps: each sub-step makes two passes over the contacts (solve and
+// relax), so its cost per step matches `iterations` passes of the others.
 const SinewVariant kVariants[] = {
+    {"sinew-si", "soft-step", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SoftStep},
     {"sinew-si", "warm+split", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SplitImpulse},
     {"sinew-si", "cold+split", RigidSolverKind::SequentialImpulse, false, PositionCorrection::SplitImpulse},
     {"sinew-si", "warm+baumgarte", RigidSolverKind::SequentialImpulse, true, PositionCorrection::Baumgarte},
+    {"sinew-newton", "shock", RigidSolverKind::Newton, false, PositionCorrection::SplitImpulse},
 };
 
 std::vector<Vec3> dynamic_positions(const World& w, const std::vector<BodyId>& ids) {
@@ -49,6 +53,8 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     s.settings.rigid.warm_starting = v.warm;
     s.settings.rigid.correction = v.correction;
     s.settings.rigid.velocity_iterations = iterations;
+    s.settings.rigid.substeps = std::max(1, iterations / 2);
+    s.settings.rigid.newton_contact_iterations = iterations;
     std::vector<BodyId> ids;
     std::unique_ptr<World> world = build_world(s, &ids);
     std::vector<BodyId> dyn;
@@ -162,6 +168,7 @@ int cmd_bench(const std::vector<std::string>& args) {
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10;
     std::string chart, markdown, scene_dir = "demos/scenes";
+    std::vector<std::string> only;  // engine or engine/variant names; empty = all
     for (std::size_t i = 1; i < args.size(); ++i) {
         const std::string& a = args[i];
         if (tool::is_option(a, "--scenes")) scenes = split_list(tool::option_value(args, i, "--scenes"));
@@ -172,6 +179,7 @@ int cmd_bench(const std::vector<std::string>& args) {
         else if (tool::is_option(a, "--chart")) chart = tool::option_value(args, i, "--chart");
         else if (tool::is_option(a, "--markdown")) markdown = tool::option_value(args, i, "--markdown");
         else if (tool::is_option(a, "--scene-dir")) scene_dir = tool::option_value(args, i, "--scene-dir");
+        else if (tool::is_option(a, "--engines")) only = split_list(tool::option_value(args, i, "--engines"));
         else throw UsageError("unknown option '" + a + "'");
     }
     if (scenes.empty()) throw UsageError("--scenes is empty");
@@ -179,11 +187,19 @@ int cmd_bench(const std::vector<std::string>& args) {
     for (const std::string& name : scenes) {
         const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");  // SceneError: exit 1
         int n = steps > 0 ? steps : scene.steps;
+        auto wanted = [&](const std::string& engine, const std::string& variant) {
+            if (only.empty()) return true;
+            for (const std::string& o : only)
+                if (o == engine || o == engine + "/" + variant) return true;
+            return false;
+        };
         for (const SinewVariant& v : kVariants) {
+            if (!wanted(v.engine, v.variant)) continue;
             std::cerr << "bench: " << name << " " << v.engine << " " << v.variant << " (" << n << " steps)...\n";
             runs.push_back(run_sinew(scene, v, n, iterations));
             std::cout << to_json_line(runs.back()) << std::endl;
         }
+        if (!wanted("bullet", "default")) continue;
         std::cerr << "bench: " << name << " bullet (" << n << " steps)...\n";
         runs.push_back(run_bullet(scene, n, iterations));
         std::cout << to_json_line(runs.back()) << std::endl;
@@ -230,8 +246,8 @@ std::string to_json_line(const RigidRun& r) {
 namespace sinew::tool {
 const Command bench_command = {
     "bench", bench::cmd_bench, "benchmark Sinew's solvers against Bullet in the same run",
-    "usage: sinew bench rigid [--scenes a,b,...] [--steps N] [--iterations N] [--chart FILE.png]\n"
-    "                         [--markdown FILE.md] [--scene-dir DIR]\n"
+    "usage: sinew bench rigid [--scenes a,b,...] [--engines e,e/variant,...] [--steps N] [--iterations N]\n"
+    "                         [--chart FILE.png] [--markdown FILE.md] [--scene-dir DIR]\n"
     "\n"
     "Runs each scene (default: pyramid-10/20/40, tower-10/20, many-pyramids from demos/scenes) under\n"
     "every Sinew solver setting and under Bullet 3.24, in this process. Progress goes to stderr; one JSON\n"
