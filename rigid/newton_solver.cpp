@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -180,7 +181,12 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     gather(sys, h);
     RigidSystem::State& st = sys.state();
     const int iters = set.newton_contact_iterations;
+    // Joints: velocity constraints with a Baumgarte bias, one pass before each contact pass.
+    JointSet& joints = sys.joints();
+    const bool have_joints = joints.count() > 0;
+    if (have_joints) joints.prepare(sys, h, JointSoftness{false, set.baumgarte, 0, 0}, false);
     for (int i = 1; i <= iters; ++i) {
+        if (have_joints) joints.solve(sys, true);
         const Real e = Real(i) / Real(iters) - 1;  // rises from -1 + 1/N to 0
         for (const NContact& c : contacts_)
             for (int k = 0; k < c.count; ++k) resolve_point(st, c, c.p[k], e, h, false, false);

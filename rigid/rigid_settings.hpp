@@ -24,13 +24,19 @@ struct RigidSettings {
     Vec3 gravity = Vec3(0, Real(-9.81), 0);  ///< m/s^2
     RigidSolverKind solver = RigidSolverKind::SequentialImpulse;
     int velocity_iterations = 10;
-    PositionCorrection correction = PositionCorrection::SplitImpulse;
+    /// Soft step stands best per unit of time in `sinew bench rigid` (docs/RESULTS.md), so it is the default.
+    PositionCorrection correction = PositionCorrection::SoftStep;
     bool warm_starting = true;
     /// Soft step only: sub-steps per step; each does one biased solve and one relax pass, so it costs
-    /// about two iterations of the other methods (the benchmark counts 2 x substeps as its iterations).
-    int substeps = 4;
+    /// about two iterations of the other methods. 0 = velocity_iterations / 2 (at least 1), so that
+    /// `velocity_iterations` means passes over the constraints for every method.
+    int substeps = 0;
+    int effective_substeps() const { return substeps > 0 ? substeps : (velocity_iterations / 2 > 0 ? velocity_iterations / 2 : 1); }
     Real contact_hertz = 60;           ///< soft step: contact stiffness (Hz), capped at a quarter of the sub-step rate
-    Real contact_damping_ratio = 10;   ///< soft step: heavily over-damped so pushing out adds no bounce
+    /// Soft step: over-damped so pushing out adds no bounce. Box2D v3 uses 10 at 30 Hz; at 60 Hz (which
+    /// towers need) 10 let pyramid-40 vibrate (kinetic energy up to 3.7 J late in the run), 5 keeps it
+    /// under 0.003 J with the same drift (sweep in the commit message).
+    Real contact_damping_ratio = 5;
     Real contact_push_velocity = 3;    ///< soft step: m/s cap on the speed that removes penetration
     Real baumgarte = Real(0.2);              ///< fraction of the penetration removed per step
     Real linear_slop = Real(0.005);          ///< m of penetration left alone (keeps contacts persistent)

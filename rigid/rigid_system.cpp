@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "engine/core/mass_properties.hpp"
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -43,7 +44,7 @@ const char* position_correction_name(PositionCorrection c) {
     return "unknown";
 }
 
-RigidSystem::RigidSystem(const RigidSettings& settings) {
+RigidSystem::RigidSystem(const RigidSettings& settings) : joints_(std::make_unique<JointSet>()) {
     set_settings(settings);
 }
 
@@ -71,7 +72,8 @@ void RigidSystem::set_settings(const RigidSettings& s) {
         bad("newton iterations", "must be >= 0 (collision) and >= 1 (contact)");
     if (!(s.newton_projection_fraction >= 0 && s.newton_projection_fraction <= 1))
         bad("newton projection_fraction", "must be in [0, 1], got " + fmt(s.newton_projection_fraction));
-    if (s.substeps < 1 || s.substeps > 64) bad("substeps", "must be in [1, 64], got " + std::to_string(s.substeps));
+    if (s.substeps < 0 || s.substeps > 64)
+        bad("substeps", "must be in [0, 64] (0 = velocity_iterations / 2), got " + std::to_string(s.substeps));
     if (!(s.contact_hertz > 0) || !is_finite(s.contact_hertz)) bad("contact_hertz", "must be finite and > 0");
     if (!(s.contact_damping_ratio >= 0) || !is_finite(s.contact_damping_ratio))
         bad("contact_damping_ratio", "must be finite and >= 0");
@@ -215,6 +217,7 @@ void RigidSystem::destroy_body(BodyId id) {
             wake_island(c.body_a);
             wake_island(c.body_b);
         }
+    joints_->destroy_attached(s);
     tree_.destroy(proxy_[s]);
     proxy_[s] = DynamicTree::kNull;
     alive_[s] = false;
@@ -297,6 +300,21 @@ void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
     state_.w[s] += r * inv_inertia_local_[s] * r.transpose() * (p - state_.x[s]).cross(j);
 }
 
+JointId RigidSystem::create_joint(const JointDef& def) {
+    JointId id = joints_->create(def, *this);
+    if (valid(def.body_a)) wake_island(def.body_a.index);
+    if (valid(def.body_b)) wake_island(def.body_b.index);
+    return id;
+}
+
+void RigidSystem::destroy_joint(JointId id) {
+    if (!joints_->valid(id)) throw RigidError("destroy_joint: stale or unknown joint id");
+    const JointDef d = joints_->def(id);
+    joints_->destroy(id);
+    if (valid(d.body_a)) wake_island(d.body_a.index);
+    if (valid(d.body_b)) wake_island(d.body_b.index);
+}
+
 BodyType RigidSystem::type(BodyId id) const { check(id, "type"); return type_[id.index]; }
 Real RigidSystem::mass(BodyId id) const { check(id, "mass"); return mass_[id.index]; }
 const Shape& RigidSystem::shape(BodyId id) const { check(id, "shape"); return shape_[id.index]; }
@@ -336,6 +354,7 @@ bool RigidSystem::all_finite() const {
 void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
     switch (stage) {
         case Stage::IntegrateVelocities:
+            broken_joints_.clear();
             prepare_mass_state();
             solver_->before_integrate_velocities(*this, ctx.h);
             if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
@@ -388,6 +407,7 @@ void RigidSystem::detect_collisions(Real h) {
         std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
         if (a > b) std::swap(a, b);
         if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
+        if (joints_->filters_pair(a, b)) continue;
         pair_keys_.push_back(pair_key(a, b));
     }
     std::sort(pair_keys_.begin(), pair_keys_.end());
@@ -527,6 +547,7 @@ void RigidSystem::integrate_positions(Real h) {
         state_.torque[s].setZero();
     }
     solver_->correct_positions(*this, h);
+    joints_->finish(h, broken_joints_);
     if (settings_.sleeping) update_sleep(h);
 }
 
@@ -569,6 +590,11 @@ void RigidSystem::update_sleep(Real h) {
         std::uint32_t ra = find_root(c.body_a), rb = find_root(c.body_b);
         if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
     }
+    joints_->for_each_connection([&](std::uint32_t a, std::uint32_t b) {
+        if (type_[a] != BodyType::Dynamic || type_[b] != BodyType::Dynamic) return;
+        std::uint32_t ra = find_root(a), rb = find_root(b);
+        if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
+    });
     const Real lin2 = settings_.sleep_linear_velocity * settings_.sleep_linear_velocity;
     const Real ang2 = settings_.sleep_angular_velocity * settings_.sleep_angular_velocity;
     // Per body: time spent below the thresholds. Per island: the minimum over its bodies.

@@ -14,6 +14,7 @@
 #include "engine/core/manifold.hpp"
 #include "engine/core/narrowphase.hpp"
 #include "engine/core/pipeline.hpp"
+#include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
 
@@ -40,6 +41,7 @@ struct ContactManifold {
 };
 
 class RigidSolver;
+class JointSet;
 
 class RigidSystem final : public System {
 public:
@@ -81,6 +83,14 @@ public:
     bool awake(BodyId id) const;
     void wake(BodyId id);
     std::uint64_t user_data(BodyId id) const;
+
+    // ---- joints (rigid/joint.hpp) ---------------------------------------------------------------------
+    JointId create_joint(const JointDef& def);  ///< validates; throws RigidError and changes nothing
+    void destroy_joint(JointId id);
+    JointSet& joints() { return *joints_; }
+    const JointSet& joints() const { return *joints_; }
+    /// Joints that broke during the last step (cleared at the start of each step).
+    const std::vector<JointId>& broken_joints() const { return broken_joints_; }
 
     /// Kinetic energy of all dynamic bodies (J).
     double kinetic_energy() const;
@@ -162,6 +172,8 @@ private:
     std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
     ManifoldList scratch_;
     std::unique_ptr<RigidSolver> solver_;
+    std::unique_ptr<JointSet> joints_;
+    std::vector<JointId> broken_joints_;
 };
 
 }  // namespace sinew

@@ -10,8 +10,10 @@
 // Speculative contacts: points within the contact margin with gap g > 0 let the bodies approach by
 // g/h this step, so fast bodies stop at the surface instead of tunnelling deep.
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -165,17 +167,27 @@ void SequentialImpulseSolver::solve_iteration(bool split) {
         for (int k = 0; k < c.count; ++k) {
             PointConstraint& p = c.p[k];
             const Real max_f = c.friction * p.normal_impulse;
-            for (int t = 0; t < 2; ++t) {
-                Real vt = c.t[t].dot(B.v - A.v) + p.rb_t[t].dot(B.w) - p.ra_t[t].dot(A.w);
-                Real old = p.tangent_impulse[t];
-                Real acc = std::clamp(old - p.tangent_mass[t] * vt, -max_f, max_f);
-                Real dl = acc - old;
-                p.tangent_impulse[t] = acc;
-                A.v -= (dl * A.inv_m) * c.t[t];
-                B.v += (dl * B.inv_m) * c.t[t];
-                A.w -= dl * p.ia_t[t];
-                B.w += dl * p.ib_t[t];
+            // Both tangent rows from the same velocities, clamped together to the friction circle
+            // (a per-row clamp would be a square cone, sqrt(2) too strong on the diagonal).
+            const Vec3 dv = B.v - A.v;
+            Real vt0 = c.t[0].dot(dv) + p.rb_t[0].dot(B.w) - p.ra_t[0].dot(A.w);
+            Real vt1 = c.t[1].dot(dv) + p.rb_t[1].dot(B.w) - p.ra_t[1].dot(A.w);
+            Real l0 = p.tangent_impulse[0] - p.tangent_mass[0] * vt0;
+            Real l1 = p.tangent_impulse[1] - p.tangent_mass[1] * vt1;
+            Real len2 = l0 * l0 + l1 * l1;
+            if (len2 > max_f * max_f) {
+                Real scale = max_f / std::sqrt(len2);
+                l0 *= scale;
+                l1 *= scale;
             }
+            Real d0 = l0 - p.tangent_impulse[0], d1 = l1 - p.tangent_impulse[1];
+            p.tangent_impulse[0] = l0;
+            p.tangent_impulse[1] = l1;
+            Vec3 j = d0 * c.t[0] + d1 * c.t[1];
+            A.v -= A.inv_m * j;
+            B.v += B.inv_m * j;
+            A.w -= d0 * p.ia_t[0] + d1 * p.ia_t[1];
+            B.w += d0 * p.ib_t[0] + d1 * p.ib_t[1];
         }
         for (int k = 0; k < c.count; ++k) {
             PointConstraint& p = c.p[k];
@@ -225,10 +237,43 @@ void SequentialImpulseSolver::store_impulses(RigidSystem& sys) {
 }
 
 void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
+    const RigidSettings& set = sys.settings();
     prepare(sys, h);
-    if (sys.settings().warm_starting) warm_start();
-    const bool split = sys.settings().correction == PositionCorrection::SplitImpulse;
-    for (int it = 0; it < sys.settings().velocity_iterations; ++it) solve_iteration(split);
+    // Joints work on the system's velocity arrays; with joints present the solver's copies are synced
+    // around each joint pass (a copy of n bodies, cheap next to the contact rows).
+    JointSet& joints = sys.joints();
+    const bool have_joints = joints.count() > 0;
+    RigidSystem::State& st = sys.state();
+    auto to_state = [&] {
+        for (std::size_t i = 0; i < bodies_.size(); ++i) {
+            st.v[i] = bodies_[i].v;
+            st.w[i] = bodies_[i].w;
+        }
+    };
+    auto from_state = [&] {
+        for (std::size_t i = 0; i < bodies_.size(); ++i) {
+            bodies_[i].v = st.v[i];
+            bodies_[i].w = st.w[i];
+        }
+    };
+    if (have_joints) joints.prepare(sys, h, JointSoftness{false, set.baumgarte, 0, 0}, set.warm_starting);
+    if (set.warm_starting) {
+        warm_start();
+        if (have_joints) {
+            to_state();
+            joints.warm_start(sys);
+            from_state();
+        }
+    }
+    const bool split = set.correction == PositionCorrection::SplitImpulse;
+    for (int it = 0; it < set.velocity_iterations; ++it) {
+        if (have_joints) {  // joints first, then contacts (Box2D's order)
+            to_state();
+            joints.solve(sys, true);
+            from_state();
+        }
+        solve_iteration(split);
+    }
     store_impulses(sys);
 }
 

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -68,7 +69,7 @@ class SoftStepSolver final : public RigidSolver {
 public:
     bool integrates_itself() const override { return true; }
     void solve_velocities(RigidSystem& sys, Real h) override;
-    void correct_positions(RigidSystem&, Real) override {}
+    void correct_positions(RigidSystem& sys, Real h) override;
 
 private:
     void prepare(RigidSystem& sys, Real h_sub);
@@ -80,6 +81,11 @@ private:
     std::vector<SoftContact> contacts_;
     std::vector<SoftBody> bodies_;
     std::vector<Quat> q0_;  // orientation at the start of the step
+    // The last sub-step is finished in correct_positions(), after the pipeline's coupling hooks.
+    void integrate_and_relax(RigidSystem& sys);
+    bool pending_ = false, have_joints_ = false;
+    int n_sub_ = 1;
+    Real h_sub_ = 0;
 };
 
 void SoftStepSolver::prepare(RigidSystem& sys, Real h_sub) {
@@ -205,17 +211,28 @@ void SoftStepSolver::solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
         for (int k = 0; k < c.count; ++k) {
             SoftPoint& p = c.p[k];
             const Real max_f = c.friction * p.normal_impulse;
-            for (int t = 0; t < 2; ++t) {
-                Real vt = (c.t[t].cwiseProduct(vb - va) + p.rb_t[t].cwiseProduct(ob) - p.ra_t[t].cwiseProduct(oa)).sum();
-                Real old = p.tangent_impulse[t];
-                Real acc = std::clamp(old - p.tangent_mass[t] * vt, -max_f, max_f);
-                Real dl = acc - old;
-                p.tangent_impulse[t] = acc;
-                va -= (dl * wa) * c.t[t];
-                vb += (dl * wb) * c.t[t];
-                oa -= dl * p.ia_t[t];
-                ob += dl * p.ib_t[t];
+            // Both tangent rows from the same velocities, then the pair is clamped to the friction
+            // circle |lambda_t| <= mu lambda_n: clamping each row to its own bound would be a square
+            // cone, up to sqrt(2) too strong on the diagonal, and wrong on a slope not aligned with t1.
+            const V4 dv = vb - va;
+            Real vt0 = (c.t[0].cwiseProduct(dv) + p.rb_t[0].cwiseProduct(ob) - p.ra_t[0].cwiseProduct(oa)).sum();
+            Real vt1 = (c.t[1].cwiseProduct(dv) + p.rb_t[1].cwiseProduct(ob) - p.ra_t[1].cwiseProduct(oa)).sum();
+            Real l0 = p.tangent_impulse[0] - p.tangent_mass[0] * vt0;
+            Real l1 = p.tangent_impulse[1] - p.tangent_mass[1] * vt1;
+            Real len2 = l0 * l0 + l1 * l1;
+            if (len2 > max_f * max_f) {
+                Real scale = max_f / std::sqrt(len2);
+                l0 *= scale;
+                l1 *= scale;
             }
+            Real d0 = l0 - p.tangent_impulse[0], d1 = l1 - p.tangent_impulse[1];
+            p.tangent_impulse[0] = l0;
+            p.tangent_impulse[1] = l1;
+            V4 j = d0 * c.t[0] + d1 * c.t[1];
+            va -= wa * j;
+            vb += wb * j;
+            oa -= d0 * p.ia_t[0] + d1 * p.ia_t[1];
+            ob += d0 * p.ib_t[0] + d1 * p.ib_t[1];
         }
         A.v = va;
         A.w = oa;
@@ -260,7 +277,7 @@ void SoftStepSolver::store(RigidSystem& sys) {
 
 void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     const RigidSettings& set = sys.settings();
-    const int n_sub = set.substeps;
+    const int n_sub = set.effective_substeps();
     const Real h_sub = h / Real(n_sub), inv_h_sub = Real(n_sub) / h;
     RigidSystem::State& st = sys.state();
     prepare(sys, h_sub);
@@ -275,32 +292,88 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
         b.dr.setIdentity();
         b.inv_m = st.inv_mass[s];
     }
-    for (int i = 0; i < n_sub; ++i) {
-        // Velocities of moving bodies: gravity and forces, through the system (it owns the body data).
+    // Joints are soft too (Box2D v3: twice the contact stiffness, damping ratio 2); they work on the
+    // system's arrays, synced with the solver's copies around each joint pass when joints exist.
+    JointSet& joints = sys.joints();
+    const bool have_joints = joints.count() > 0;
+    auto to_state = [&] {
         for (std::size_t s = 0; s < nb; ++s) {
             st.v[s] = v3(bodies_[s].v);
             st.w[s] = v3(bodies_[s].w);
         }
-        sys.integrate_velocities(h_sub);
+    };
+    auto from_state = [&] {
         for (std::size_t s = 0; s < nb; ++s) {
             bodies_[s].v = v4(st.v[s]);
             bodies_[s].w = v4(st.w[s]);
         }
+    };
+    if (have_joints)
+        joints.prepare(sys, h_sub, JointSoftness{true, set.baumgarte, 2 * set.contact_hertz, 2}, set.warm_starting);
+    have_joints_ = have_joints;
+    n_sub_ = n_sub;
+    h_sub_ = h_sub;
+    for (int i = 0; i < n_sub; ++i) {
+        // Velocities of moving bodies: gravity and forces, through the system (it owns the body data).
+        to_state();
+        sys.integrate_velocities(h_sub);
+        from_state();
+        if (have_joints) {
+            to_state();
+            if (set.warm_starting) joints.warm_start(sys);
+            joints.solve(sys, true);
+            from_state();
+        }
         if (set.warm_starting) warm_start();
         solve(inv_h_sub, set.contact_push_velocity, true);
-        // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
-        for (std::size_t s = 0; s < nb; ++s) {
-            SoftBody& b = bodies_[s];
-            if (b.inv_m == 0 && b.v.isZero() && b.w.isZero()) continue;
-            const Vec3 v = v3(b.v), w = v3(b.w);
-            st.x[s] += h_sub * v;
-            b.dp += h_sub * v;
-            st.q[s] = integrate_rotation(st.q[s], w, h_sub);
-            b.dr = (st.q[s] * q0_[s].conjugate()).toRotationMatrix();
-        }
-        solve(inv_h_sub, set.contact_push_velocity, false);  // relax: remove the bias velocity
+        if (i + 1 == n_sub) break;  // the last sub-step's positions wait for IntegratePositions
+        integrate_and_relax(sys);
     }
-    restitution(set.restitution_threshold);
+    // Hand the velocities to the pipeline: a coupling hook between SolveVelocities and
+    // IntegratePositions (seed 001 Figure 9) still changes the last sub-step's positions.
+    to_state();
+    pending_ = true;
+}
+
+void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
+    const RigidSettings& set = sys.settings();
+    RigidSystem::State& st = sys.state();
+    const std::size_t nb = bodies_.size();
+    // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
+    for (std::size_t s = 0; s < nb; ++s) {
+        SoftBody& b = bodies_[s];
+        if (b.inv_m == 0 && b.v.isZero() && b.w.isZero()) continue;
+        const Vec3 v = v3(b.v), w = v3(b.w);
+        st.x[s] += h_sub_ * v;
+        b.dp += h_sub_ * v;
+        st.q[s] = integrate_rotation(st.q[s], w, h_sub_);
+        b.dr = (st.q[s] * q0_[s].conjugate()).toRotationMatrix();
+    }
+    if (have_joints_) {
+        for (std::size_t s = 0; s < nb; ++s) {
+            st.v[s] = v3(bodies_[s].v);
+            st.w[s] = v3(bodies_[s].w);
+        }
+        sys.joints().solve(sys, false);
+        for (std::size_t s = 0; s < nb; ++s) {
+            bodies_[s].v = v4(st.v[s]);
+            bodies_[s].w = v4(st.w[s]);
+        }
+    }
+    solve(Real(1) / h_sub_, set.contact_push_velocity, false);  // relax: remove the bias velocity
+}
+
+void SoftStepSolver::correct_positions(RigidSystem& sys, Real) {
+    if (!pending_) return;
+    pending_ = false;
+    RigidSystem::State& st = sys.state();
+    const std::size_t nb = bodies_.size();
+    for (std::size_t s = 0; s < nb; ++s) {  // coupling layers may have changed them
+        bodies_[s].v = v4(st.v[s]);
+        bodies_[s].w = v4(st.w[s]);
+    }
+    integrate_and_relax(sys);
+    restitution(sys.settings().restitution_threshold);
     for (std::size_t s = 0; s < nb; ++s) {
         if (st.inv_mass[s] == 0) continue;
         st.v[s] = v3(bodies_[s].v);

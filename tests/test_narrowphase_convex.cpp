@@ -185,6 +185,12 @@ TEST_CASE("separated hulls: speculative points inside the margin, nothing beyond
     REQUIRE(m.count == 1);
     CHECK(m.points[0].depth == Approx(-0.03).margin(kTol));
 
+    // Exactly touching (the degenerate case for GJK/EPA): four points at zero depth.
+    REQUIRE(narrow::convex_convex(cube, at(Vec3(0.1, 0.5, 0.2)), kGround, kGroundXf, Real(0.05), m));
+    REQUIRE(m.count == 4);
+    CHECK((m.normal - Vec3(0, -1, 0)).norm() < kTol);
+    for (int i = 0; i < m.count; ++i) CHECK(std::abs(m.points[i].depth) < kTol);
+
     CHECK_FALSE(narrow::convex_convex(cube, at(Vec3(0, 0.5 + 0.1, 0)), kGround, kGroundXf, Real(0.05), m));
     CHECK(m.count == 0);
     CHECK_FALSE(narrow::convex_convex(ball, at(Vec3(3, 0, 0)), cube, at(Vec3::Zero()), Real(0.05), m));
@@ -221,6 +227,15 @@ TEST_CASE("feature ids are stable under a small motion", "[convex]") {
         for (int j = 0; j < m2.count; ++j)
             if (m0.points[i].feature_id == m2.points[j].feature_id)
                 CHECK((m0.points[i].position - m2.points[j].position).norm() < Real(0.03));
+
+    // A sphere rolling on a hull face keeps its one id (the face, not a tie between its corners).
+    const Shape ball = make_sphere(Real(0.2));
+    REQUIRE(narrow::convex_convex(ball, at(Vec3(0, 0.69, 0)), cube, at(Vec3::Zero()), Real(0.02), m0));
+    REQUIRE(narrow::convex_convex(ball, at(Vec3(0.05, 0.69, -0.03)), cube,
+                                  at(Vec3::Zero(), axis_angle(Real(1e-3), Vec3(1, 0, 1))), Real(0.02), m1));
+    REQUIRE(m0.count == 1);
+    REQUIRE(m1.count == 1);
+    CHECK(m0.points[0].feature_id == m1.points[0].feature_id);
 
     // A capsule rolling slightly on a hull keeps its two ids too.
     const Shape cap = make_capsule(Real(0.3), Real(0.1));

@@ -13,6 +13,7 @@ TEST_CASE("free fall matches the closed form of semi-implicit Euler", "[world]")
     WorldSettings ws;
     ws.time_step = Real(1) / 60;
     ws.rigid.sleeping = false;
+    ws.rigid.correction = PositionCorrection::SplitImpulse;  // one integration per step
     World world(ws);
     BodyDef def;
     def.shape = make_sphere(Real(0.5));
@@ -34,6 +35,25 @@ TEST_CASE("free fall matches the closed form of semi-implicit Euler", "[world]")
     CHECK(xf.p.x() == Approx(x).margin(1e-4));
     CHECK(world.rigid().linear_velocity(id).y() == Approx(vy).margin(1e-4));
     CHECK(world.time() == Approx(n * h));
+}
+
+TEST_CASE("soft step free fall matches semi-implicit Euler at the sub-step", "[world]") {
+    WorldSettings ws;
+    ws.rigid.sleeping = false;
+    ws.rigid.correction = PositionCorrection::SoftStep;
+    ws.rigid.substeps = 4;
+    World world(ws);
+    BodyDef def;
+    def.shape = make_sphere(Real(0.5));
+    def.pose.p = Vec3(0, 100, 0);
+    BodyId id = world.rigid().create_body(def);
+    const int steps = 60, n = steps * 4;
+    for (int i = 0; i < steps; ++i) world.step();
+    // The same closed form with h/4 and 4 times as many steps.
+    const double h = 1.0 / 240, g = -9.81;
+    const double y = 100 + h * h * g * n * (n + 1) / 2.0;
+    CHECK(world.rigid().transform(id).p.y() == Approx(y).margin(1e-3));
+    CHECK(world.rigid().linear_velocity(id).y() == Approx(n * h * g).margin(1e-4));
 }
 
 TEST_CASE("the accumulator runs whole fixed steps and reports the interpolation fraction", "[world]") {
@@ -80,6 +100,7 @@ TEST_CASE("a coupling hook between solve and integrate changes this step's posit
     // show up in the same step's positions.
     WorldSettings ws;
     ws.rigid.gravity = Vec3::Zero();
+    ws.rigid.correction = GENERATE(PositionCorrection::SplitImpulse, PositionCorrection::SoftStep);
     World world(ws);
     BodyDef def;
     def.shape = make_sphere(Real(0.5));
@@ -88,7 +109,13 @@ TEST_CASE("a coupling hook between solve and integrate changes this step's posit
         world.rigid().state().v[id.index] = Vec3(6, 0, 0);
     });
     world.step();
-    CHECK(world.rigid().transform(id).p.x() == Approx(6.0 / 60).margin(1e-6));
+    // Sequential impulses integrate positions once per step, in IntegratePositions: the whole step
+    // moves at 6 m/s. Soft step integrates its sub-steps inside SolveVelocities but leaves the last
+    // one to IntegratePositions, so the hook moves that last sub-step (h / substeps).
+    const double expected = ws.rigid.correction == PositionCorrection::SoftStep
+                                ? 6.0 / 60 / ws.rigid.effective_substeps()
+                                : 6.0 / 60;
+    CHECK(world.rigid().transform(id).p.x() == Approx(expected).margin(1e-6));
 }
 
 TEST_CASE("bad bodies are rejected and leave the world unchanged", "[world][errors]") {

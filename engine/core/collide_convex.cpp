@@ -16,7 +16,14 @@
 //     (its most anti-aligned face, a capsule's segment) is clipped against the side planes of the
 //     reference face (Sutherland & Hodgman 1974); points below the reference plane (within margin) are
 //     kept and reduced to at most four: the deepest, then the ones spreading the contact area most.
-//     Edge-edge contacts (the normal is not close to any face normal) keep the single GJK/EPA point.
+//     Edge-edge contacts (the normal is not close to any face normal) keep the single GJK/EPA point, as
+//     do face manifolds that miss the deepest overlap along their normal (an edge contact nearly
+//     parallel to a face).
+//  libccd's EPA can stop short on deep overlaps; its answer is checked against the exact overlap of the
+//  support functions along its normal and, if short, replaced by the least overlapping of MPR's normal
+//  and the face normals (conservative: never less deep than the true penetration).
+//  convex_triangle treats the triangle as a one-face polygon and, for a shape on its front side, uses
+//  the face normal whenever the shape's incident feature overlaps the face, against internal-edge snags.
 //
 // Everything inside is computed in double whatever `Real` is: GJK's sub-simplex solver loses about half
 // the digits on nearly touching shapes, and libccd works in double anyway.
@@ -41,9 +48,10 @@ using M3d = Eigen::Matrix3d;
 // further off is an edge-edge or edge-vertex contact where one point is the honest answer, and snapping
 // it to a face would under-report the overlap along the snapped normal.
 constexpr double kFaceAlignCos = 0.9999;
-// Shape B's face becomes the reference only if clearly better aligned than A's, so the choice (and with
-// it the feature ids) does not flip between two equally good faces under tiny motion (Box2D's bias).
-constexpr double kReferenceBias = 1e-3;
+// When both shapes have an acceptable face, B's becomes the reference only if clearly better aligned
+// than A's (by ~0.26 degrees), so the choice, and with it the feature ids, does not flip between two
+// nearly parallel faces under tiny motion (the bias of Box2D's b2CollidePolygons).
+constexpr double kReferenceBias = 1e-5;
 // Cores closer than this fraction of the shapes' size are treated as overlapping: the closest-point
 // direction of a shorter vector is no longer trustworthy, EPA takes over.
 constexpr double kTouchFraction = 1e-9;
@@ -471,6 +479,13 @@ bool ccd_penetration(const Placed& A, const Placed& B, bool round, double extra,
 // ------------------------------------------------------------------------------------------------------
 // Stage 1: normal, depth and witness points.
 
+/// Overlap of the projections of A and B on unit direction n (A to B): how far B must move along n
+/// before the projections separate. The penetration depth if n is the minimum-translation direction, an
+/// upper bound for any other n.
+double overlap(const Placed& A, const Placed& B, const V3d& n) {
+    return n.dot(A.core_support(n)) - n.dot(B.core_support(-n)) + A.radius + B.radius;
+}
+
 struct ContactQuery {
     V3d n = V3d::UnitY();  ///< unit, from A to B
     double depth = 0;      ///< > 0 penetrating
@@ -494,9 +509,7 @@ bool query_contact(const Placed& A, const Placed& B, double margin, ContactQuery
     // if neither core is a solid (point, segment, triangle pairs) run it on the rounded shapes instead.
     const bool solid_core = A.kind == Kind::Box || A.kind == Kind::Hull || B.kind == Kind::Box || B.kind == Kind::Hull;
     // Overlap of the full shapes along unit n: how far B must move along n to come free. Exact for any n.
-    auto overlap_along = [&](const V3d& dir) {
-        return dir.dot(A.core_support(dir)) - dir.dot(B.core_support(-dir)) + rsum;
-    };
+    auto overlap_along = [&](const V3d& dir) { return overlap(A, B, dir); };
     V3d n = V3d::UnitY(), pos = 0.5 * (A.center() + B.center());
     double d = 0;
     bool ok = ccd_penetration(A, B, !solid_core, 0.0, false, n, d, pos);
@@ -691,7 +704,7 @@ bool clip_manifold(const Placed& ref, int ref_face, const Placed& inc, bool ref_
         const V3d& v1 = sc.ref[(j + 1) % k];
         V3d sn = (v1 - v0).cross(nr);
         const double len = sn.norm();
-        if (!(len > 0)) continue;
+        if (!(len > 1e-9 * ref.size)) continue;  // a vanishing edge has no direction; its neighbours clip
         sn /= len;
         clip(sc.a, sc.b, sn, sn.dot(v0), static_cast<std::uint32_t>(j));
         std::swap(sc.a, sc.b);
@@ -724,14 +737,25 @@ bool clip_manifold(const Placed& ref, int ref_face, const Placed& inc, bool ref_
     return true;
 }
 
+/// Feature of a shape at a single-point contact with outward direction d: the face it touches with if one
+/// is aligned with d (stable while the shape rests on it; the extreme vertex of a face would be a tie
+/// that flickers), else the extreme vertex.
+std::uint32_t touching_feature(const Placed& s, const V3d& d) {
+    if (s.face_count() > 0) {
+        double align = -2;
+        const int f = s.best_face(d, &align);
+        if (align >= kFaceAlignCos) return 0x2000u | static_cast<std::uint32_t>(f);
+    }
+    int v = 0;
+    s.core_support(d, &v);
+    return static_cast<std::uint32_t>(v);
+}
+
 void single_point(const Placed& A, const Placed& B, const ContactQuery& q, Manifold& m) {
-    int fa = 0, fb = 0;
-    A.core_support(q.n, &fa);
-    B.core_support(-q.n, &fb);
     m.clear();
     m.normal = q.n.cast<Real>();
     m.add((0.5 * (q.pa + q.pb)).cast<Real>(), Real(q.depth),
-          make_feature_id(3, static_cast<std::uint32_t>(fa), static_cast<std::uint32_t>(fb)));
+          make_feature_id(3, touching_feature(A, q.n), touching_feature(B, -q.n)));
 }
 
 bool has_faces(const Placed& s) { return s.face_count() > 0; }
@@ -741,13 +765,19 @@ bool build_manifold(const Placed& A, const Placed& B, const ContactQuery& q, dou
     double align_a = -2, align_b = -2;
     const int fa = has_faces(A) ? A.best_face(q.n, &align_a) : -1;
     const int fb = has_faces(B) ? B.best_face(-q.n, &align_b) : -1;
-    const bool ref_is_a = fa >= 0 && !(align_b > align_a + kReferenceBias);
-    const double align = ref_is_a ? align_a : align_b;
+    const bool ok_a = fa >= 0 && align_a >= kFaceAlignCos, ok_b = fb >= 0 && align_b >= kFaceAlignCos;
+    const bool ref_is_a = ok_a && !(ok_b && align_b > align_a + kReferenceBias);
     // A sphere touches in one point: stage 1's point is exact.
     const bool incident_round = ref_is_a ? B.kind == Kind::Sphere : A.kind == Kind::Sphere;
-    if (align >= kFaceAlignCos && !incident_round) {
-        if (ref_is_a ? clip_manifold(A, fa, B, true, margin, m) : clip_manifold(B, fb, A, false, margin, m))
-            return true;
+    if ((ok_a || ok_b) && !incident_round) {
+        if (ref_is_a ? clip_manifold(A, fa, B, true, margin, m) : clip_manifold(B, fb, A, false, margin, m)) {
+            // The clipped points must hold the deepest overlap along the face normal. If the shapes
+            // overlap further along it outside the reference face (an edge contact nearly parallel to the
+            // face), the face manifold would under-report it: one point along the true normal is better.
+            double deepest = -std::numeric_limits<double>::infinity();
+            for (int i = 0; i < m.count; ++i) deepest = std::max(deepest, double(m.points[i].depth));
+            if (overlap(A, B, m.normal.cast<double>()) <= deepest + 1e-4 * (A.size + B.size)) return true;
+        }
     }
     single_point(A, B, q, m);
     return true;

@@ -36,6 +36,14 @@ struct SceneBody {
     BodyDef def;
 };
 
+/// One joint of a scene, fully resolved: the two bodies are indices into SceneDesc::bodies (their ids
+/// in `def` are filled in by build_world), anchors and axis are in the bodies' frames.
+struct SceneJoint {
+    std::string json_path;  ///< where it was defined ("/joints/2"), for later errors
+    std::size_t body_a = 0, body_b = 0;
+    JointDef def;
+};
+
 /// A parsed and validated scene.
 struct SceneDesc {
     std::string file;         ///< where it came from (path or origin name)
@@ -44,6 +52,7 @@ struct SceneDesc {
     WorldSettings settings;
     int steps = 600;          ///< default step count for `sinew run`
     std::vector<SceneBody> bodies;  ///< "bodies" in file order, then each generator's bodies in order
+    std::vector<SceneJoint> joints; ///< "joints" in file order
 };
 
 constexpr const char* kSceneFormat = "sinew-scene";  ///< value of the "format" key
@@ -54,9 +63,10 @@ SceneDesc parse_scene_file(const std::string& path);
 /// Same, from text. Relative paths inside (OBJ meshes) are resolved against origin_name's directory.
 SceneDesc parse_scene_string(const std::string& text, const std::string& origin_name);
 
-/// Creates a world with the scene's settings and bodies. Bodies are created in SceneDesc order; if `ids`
-/// is given it receives their ids in that order. Throws SceneError (naming the body's json_path) if the
-/// rigid system rejects a body; the partly built world is then discarded.
+/// Creates a world with the scene's settings, bodies and joints. Bodies are created in SceneDesc order; if
+/// `ids` is given it receives their ids in that order; joints follow, in order. Throws SceneError (naming
+/// the body's or joint's json_path) if the rigid system rejects one; the partly built world is then
+/// discarded.
 std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* ids = nullptr);
 
 // ---- building blocks, public so other engines and tests place bodies identically -------------------

@@ -11,16 +11,25 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         // The parser checks every setting's range; this catches limits only the world knows about.
         throw SceneError(scene.file, "/settings", e.what());
     }
-    if (ids) {
-        ids->clear();
-        ids->reserve(scene.bodies.size());
-    }
+    std::vector<BodyId> local_ids;
+    std::vector<BodyId>& out = ids ? *ids : local_ids;  // joints need the ids even if the caller does not
+    out.clear();
+    out.reserve(scene.bodies.size());
     for (const SceneBody& body : scene.bodies) {
         try {
-            const BodyId id = world->rigid().create_body(body.def);
-            if (ids) ids->push_back(id);
+            out.push_back(world->rigid().create_body(body.def));
         } catch (const std::invalid_argument& e) {  // RigidError, ShapeError (e.g. mass properties)
             throw SceneError(scene.file, body.json_path, "body \"" + body.name + "\": " + e.what());
+        }
+    }
+    for (const SceneJoint& joint : scene.joints) {
+        JointDef def = joint.def;
+        def.body_a = out.at(joint.body_a);
+        def.body_b = out.at(joint.body_b);
+        try {
+            world->rigid().create_joint(def);
+        } catch (const std::invalid_argument& e) {  // RigidError
+            throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
         }
     }
     return world;

@@ -69,7 +69,8 @@ public:
             const std::size_t count = n->array_size();
             for (std::size_t i = 0; i < count; ++i) parse_generator(n->item(i), i);
         }
-        for (const char* reserved : {"soft_bodies", "joints", "coupling"}) {
+        if (auto n = root_.find("joints")) parse_joints(*n);  // after the bodies: joints name them
+        for (const char* reserved : {"soft_bodies", "coupling"}) {
             std::optional<Node> n = root_.find(reserved);
             if (n && !(n->json().is_array() && n->json().empty()))
                 n->fail(std::string(reserved) +
@@ -113,7 +114,7 @@ private:
                 o.get("contact_margin").fail("contact_margin must be < 1 m, got " + o.get("contact_margin").json().dump());
             r.max_correction_velocity =
                 read_real(o, "max_correction_velocity", r.max_correction_velocity, Range::Positive);
-            r.substeps = read_int(o, "substeps", r.substeps, 1, 64);
+            r.substeps = read_int(o, "substeps", r.substeps, 0, 64);
             r.contact_hertz = read_real(o, "contact_hertz", r.contact_hertz, Range::Positive);
             r.contact_damping_ratio = read_real(o, "contact_damping_ratio", r.contact_damping_ratio, Range::NonNegative);
             r.contact_push_velocity = read_real(o, "contact_push_velocity", r.contact_push_velocity, Range::Positive);
@@ -506,6 +507,110 @@ private:
         b.name = std::move(name);
         b.def.pose.p = centre;
         add_body(std::move(b), where);
+    }
+
+    // ---- joints -------------------------------------------------------------------------------------
+    // Each joint names its two bodies (from "bodies" or generators); anchors and the axis are in the
+    // bodies' frames. Everything JointSet::create() would reject is caught here, at the offending key.
+    void parse_joints(const Node& js) {
+        const std::size_t count = js.array_size();
+        if (count == 0) return;
+        std::unordered_map<std::string, std::size_t> index_of;
+        index_of.reserve(desc_.bodies.size());
+        for (std::size_t i = 0; i < desc_.bodies.size(); ++i) index_of.emplace(desc_.bodies[i].name, i);
+        desc_.joints.reserve(count);
+        for (std::size_t i = 0; i < count; ++i) parse_joint(js.item(i), index_of);
+    }
+
+    std::size_t joint_body(const Node& ref, const std::unordered_map<std::string, std::size_t>& index_of) const {
+        const std::string& name = ref.string();
+        auto it = index_of.find(name);
+        if (it == index_of.end())
+            ref.fail("unknown body \"" + name + "\"" +
+                     (desc_.bodies.empty() ? std::string(" (the scene has no bodies)")
+                                           : " (no body of the scene has that name)"));
+        return it->second;
+    }
+
+    void parse_joint(const Node& n, const std::unordered_map<std::string, std::size_t>& index_of) {
+        n.expect_object();
+        static const std::pair<const char*, JointType> types[] = {{"ball", JointType::Ball},
+                                                                  {"hinge", JointType::Hinge},
+                                                                  {"slider", JointType::Slider},
+                                                                  {"distance", JointType::Distance},
+                                                                  {"fixed", JointType::Fixed}};
+        n.get("type");
+        const JointType type = read_enum(n, "type", JointType::Ball, types);
+        const bool has_axis = type == JointType::Hinge || type == JointType::Slider;
+        if (has_axis)
+            n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force", "axis",
+                          "limit", "motor"});
+        else if (type == JointType::Distance)
+            n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force",
+                          "length", "frequency", "damping_ratio"});
+        else
+            n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force"});
+
+        SceneJoint sj;
+        sj.json_path = n.path();
+        JointDef& d = sj.def;
+        d.type = type;
+        const Node ref_a = n.get("body_a"), ref_b = n.get("body_b");
+        sj.body_a = joint_body(ref_a, index_of);
+        sj.body_b = joint_body(ref_b, index_of);
+        const SceneBody& a = desc_.bodies[sj.body_a];
+        const SceneBody& b = desc_.bodies[sj.body_b];
+        if (sj.body_a == sj.body_b) ref_b.fail("body_b must differ from body_a (both are \"" + a.name + "\")");
+        if (a.def.type != BodyType::Dynamic && b.def.type != BodyType::Dynamic)
+            n.fail("a joint needs at least one dynamic body; \"" + a.name + "\" is " + body_type_name_lower(a.def.type) +
+                   " and \"" + b.name + "\" is " + body_type_name_lower(b.def.type));
+        // anchor_b defaults to the world point of anchor_a, so one anchor places the joint (for a distance
+        // joint, whose anchors are apart, to B's origin).
+        d.local_anchor_a = read_vec3(n, "anchor_a", Vec3::Zero());
+        const Vec3 world_a = a.def.pose.apply(d.local_anchor_a);
+        d.local_anchor_b = read_vec3(n, "anchor_b", type == JointType::Distance ? Vec3::Zero()
+                                                                                : b.def.pose.apply_inverse(world_a));
+        d.collide_connected = read_bool(n, "collide_connected", false);
+        d.break_force = read_real(n, "break_force", 0, Range::NonNegative);
+
+        if (has_axis) {
+            const Node axis = n.get("axis");
+            d.local_axis_a = axis.vec3();
+            if (!(d.local_axis_a.norm() > Real(1e-6))) axis.fail("axis must be non-zero, got " + axis.json().dump());
+            if (auto limit = n.find("limit")) {
+                limit->allow_keys({"lower", "upper"});
+                const Node lo = limit->get("lower"), hi = limit->get("upper");
+                d.enable_limit = true;
+                d.lower = lo.real();
+                d.upper = hi.real();
+                if (type == JointType::Hinge) {  // the hinge angle is measured in (-pi, pi]
+                    if (d.lower < -kPi) lo.fail("a hinge's lower limit must be >= -pi rad, got " + lo.json().dump());
+                    if (d.upper > kPi) hi.fail("a hinge's upper limit must be <= pi rad, got " + hi.json().dump());
+                }
+                if (d.lower > d.upper)
+                    limit->fail("lower (" + lo.json().dump() + ") must be <= upper (" + hi.json().dump() + ")");
+            }
+            if (auto motor = n.find("motor")) {
+                motor->allow_keys({"speed", "max_force"});
+                d.enable_motor = true;
+                d.motor_speed = read_real(*motor, "speed", 0, Range::Any);
+                d.max_motor_force = checked(motor->get("max_force"), Range::NonNegative);
+            }
+        }
+        if (type == JointType::Distance) {
+            d.frequency = read_real(n, "frequency", 0, Range::NonNegative);
+            d.damping_ratio = read_real(n, "damping_ratio", 0, Range::NonNegative);
+            if (auto len = n.find("length")) {
+                d.length = checked(*len, Range::Positive);
+                if (!(d.length > Real(1e-4))) len->fail("length must be > 1e-4 m, got " + len->json().dump());
+            } else {
+                const Real now = (b.def.pose.apply(d.local_anchor_b) - world_a).norm();
+                if (!(now > Real(1e-4)))
+                    n.fail("the anchors coincide, so the rest length (their distance at creation) would be 0; "
+                           "give \"length\" > 0 or use a ball joint");
+            }
+        }
+        desc_.joints.push_back(std::move(sj));
     }
 
     Context ctx_;

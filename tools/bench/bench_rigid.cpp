@@ -53,7 +53,7 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     s.settings.rigid.warm_starting = v.warm;
     s.settings.rigid.correction = v.correction;
     s.settings.rigid.velocity_iterations = iterations;
-    s.settings.rigid.substeps = std::max(1, iterations / 2);
+    s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
     s.settings.rigid.newton_contact_iterations = iterations;
     std::vector<BodyId> ids;
     std::unique_ptr<World> world = build_world(s, &ids);

@@ -1,0 +1,395 @@
+// The joints of a rigid system: generational slots, validation, and the per-step passes, which dispatch
+// by a switch on the joint type to the row code in rigid/joint_<type>.cpp (no virtual calls, no heap
+// allocation in the passes: prepared rows live in a flat array indexed by joint slot).
+#include "rigid/joint_set.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "rigid/joint_rows.hpp"
+#include "rigid/rigid_system.hpp"
+
+namespace sinew {
+
+using namespace joint_detail;
+
+const char* joint_type_name(JointType t) {
+    switch (t) {
+        case JointType::Ball: return "ball";
+        case JointType::Hinge: return "hinge";
+        case JointType::Slider: return "slider";
+        case JointType::Distance: return "distance";
+        case JointType::Fixed: return "fixed";
+    }
+    return "unknown";
+}
+
+struct JointSet::Impl {
+    std::vector<JointData> joints;        // by slot
+    std::vector<JointRows> rows;          // by slot: this (sub-)step's prepared rows
+    std::vector<std::uint32_t> generation;
+    std::vector<std::uint8_t> alive;
+    std::vector<std::uint32_t> free_slots;
+    std::vector<std::uint32_t> active;    // slots prepared for this step, in slot order
+    std::size_t count = 0;
+    Real h = 0;                           // the length given to the last prepare()
+    // Sorted (min slot, max slot) keys of joints that filter contacts, rebuilt on the first query after
+    // a joint is created or destroyed: the broad phase asks once per candidate pair.
+    mutable std::vector<std::uint64_t> filter_keys;
+    mutable bool filter_dirty = false;
+
+    bool valid(JointId id) const {
+        return !id.is_null() && id.index < generation.size() && alive[id.index] && generation[id.index] == id.generation;
+    }
+    void check(JointId id, const char* where) const {
+        if (!valid(id))
+            throw RigidError(std::string(where) + ": stale or unknown joint id (index " + std::to_string(id.index) +
+                             ", generation " + std::to_string(id.generation) + ")");
+    }
+    JointData& at(JointId id, const char* where) {
+        check(id, where);
+        return joints[id.index];
+    }
+    const JointData& at(JointId id, const char* where) const {
+        check(id, where);
+        return joints[id.index];
+    }
+    void remove(std::uint32_t slot) {
+        alive[slot] = 0;
+        free_slots.push_back(slot);
+        --count;
+        filter_dirty = true;
+    }
+    static std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) {
+        if (a > b) std::swap(a, b);
+        return (std::uint64_t(a) << 32) | b;
+    }
+};
+
+namespace {
+
+std::string fmt(Real x) {
+    std::ostringstream s;
+    s << x;
+    return s.str();
+}
+
+std::string fmt(const Vec3& v) {
+    std::ostringstream s;
+    s << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+    return s.str();
+}
+
+[[noreturn]] void bad(const JointDef& d, const std::string& why) {
+    throw RigidError(std::string("joint definition (") + joint_type_name(d.type) + "): " + why);
+}
+
+void check_motor(const JointDef& d, Real speed, Real max_force) {
+    if (!is_finite(speed)) bad(d, "motor_speed must be finite, got " + fmt(speed));
+    if (!is_finite(max_force) || max_force < 0)
+        bad(d, "max_motor_force must be finite and >= 0, got " + fmt(max_force));
+}
+
+/// Every check that does not need the bodies' poses.
+void validate(const JointDef& d, const RigidSystem& sys) {
+    switch (d.type) {
+        case JointType::Ball: case JointType::Hinge: case JointType::Slider: case JointType::Distance:
+        case JointType::Fixed: break;
+        default: throw RigidError("joint definition: unknown joint type " + std::to_string(int(d.type)));
+    }
+    for (int k = 0; k < 2; ++k) {
+        const BodyId id = k == 0 ? d.body_a : d.body_b;
+        const char* name = k == 0 ? "body_a" : "body_b";
+        if (id.is_null()) bad(d, std::string(name) + " is null");
+        if (!sys.valid(id))
+            bad(d, std::string(name) + " is a stale or unknown body id (index " + std::to_string(id.index) +
+                       ", generation " + std::to_string(id.generation) + ")");
+    }
+    if (d.body_a == d.body_b) bad(d, "body_a and body_b are the same body (index " + std::to_string(d.body_a.index) + ")");
+    if (sys.type(d.body_a) != BodyType::Dynamic && sys.type(d.body_b) != BodyType::Dynamic)
+        bad(d, std::string("at least one body must be dynamic (body_a is ") + body_type_name(sys.type(d.body_a)) +
+                   ", body_b is " + body_type_name(sys.type(d.body_b)) + ")");
+    if (!is_finite(d.local_anchor_a)) bad(d, "local_anchor_a must be finite, got " + fmt(d.local_anchor_a));
+    if (!is_finite(d.local_anchor_b)) bad(d, "local_anchor_b must be finite, got " + fmt(d.local_anchor_b));
+    if (!is_finite(d.local_axis_a)) bad(d, "local_axis_a must be finite, got " + fmt(d.local_axis_a));
+    const bool has_axis = d.type == JointType::Hinge || d.type == JointType::Slider;
+    if (has_axis && !(d.local_axis_a.norm() > Real(1e-6)))
+        bad(d, "local_axis_a must be non-zero, got " + fmt(d.local_axis_a));
+    if (!is_finite(d.lower) || !is_finite(d.upper))
+        bad(d, "limits must be finite, got lower " + fmt(d.lower) + ", upper " + fmt(d.upper));
+    if (d.lower > d.upper) bad(d, "lower limit " + fmt(d.lower) + " is greater than upper limit " + fmt(d.upper));
+    // The hinge angle is measured in (-pi, pi]; a limit outside that range could never be reached.
+    if (d.type == JointType::Hinge && d.enable_limit && (d.lower < -kPi || d.upper > kPi))
+        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + fmt(d.lower) + ", " + fmt(d.upper) + "]");
+    check_motor(d, d.motor_speed, d.max_motor_force);
+    if (!is_finite(d.length)) bad(d, "length must be finite, got " + fmt(d.length));
+    if (!is_finite(d.frequency) || d.frequency < 0) bad(d, "frequency must be finite and >= 0 Hz, got " + fmt(d.frequency));
+    if (!is_finite(d.damping_ratio) || d.damping_ratio < 0)
+        bad(d, "damping_ratio must be finite and >= 0, got " + fmt(d.damping_ratio));
+    if (!is_finite(d.break_force) || d.break_force < 0)
+        bad(d, "break_force must be finite and >= 0 (0 = unbreakable), got " + fmt(d.break_force));
+}
+
+/// Centre of mass in the body's own axes, from the origin transform and the state.
+Vec3 local_com(const RigidSystem& sys, BodyId id) {
+    const Transform origin = sys.transform(id);
+    return origin.rotate_inverse(sys.state().x[id.index] - origin.p);
+}
+
+}  // namespace
+
+JointSet::JointSet() : impl_(std::make_unique<Impl>()) {}
+JointSet::~JointSet() = default;
+
+JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
+    validate(def, sys);  // throws before anything changes
+    JointData j;
+    j.def = def;
+    const RigidSystem::State& st = sys.state();
+    const Transform xa = sys.transform(def.body_a), xb = sys.transform(def.body_b);
+    const Quat qa = st.q[def.body_a.index], qb = st.q[def.body_b.index];
+    j.la = def.local_anchor_a - local_com(sys, def.body_a);
+    j.lb = def.local_anchor_b - local_com(sys, def.body_b);
+    const bool has_axis = def.type == JointType::Hinge || def.type == JointType::Slider;
+    j.axis_a = has_axis ? Vec3(def.local_axis_a.normalized()) : Vec3::UnitZ();
+    if (has_axis) j.def.local_axis_a = j.axis_a;
+    tangent_basis(j.axis_a, j.perp_a[0], j.perp_a[1]);
+    j.rel0 = (qa.conjugate() * qb).normalized();
+    j.axis_b = j.rel0.conjugate() * j.axis_a;
+    if (def.type == JointType::Distance) {
+        const Real now = (xb.apply(def.local_anchor_b) - xa.apply(def.local_anchor_a)).norm();
+        const Real length = def.length < 0 ? now : def.length;
+        // A zero rest length has no direction to push along; that is a ball joint.
+        if (!(length > Real(1e-4)))
+            bad(def, "rest length must be > 1e-4 m, got " + fmt(length) +
+                         (def.length < 0 ? " (the anchors' distance at creation)" : "") + "; use a ball joint");
+        j.def.length = length;
+    }
+
+    Impl& m = *impl_;
+    std::uint32_t slot;
+    if (!m.free_slots.empty()) {
+        slot = m.free_slots.back();
+        m.free_slots.pop_back();
+    } else {
+        slot = static_cast<std::uint32_t>(m.joints.size());
+        m.joints.emplace_back();
+        m.rows.emplace_back();
+        m.generation.push_back(0);
+        m.alive.push_back(0);
+    }
+    m.joints[slot] = j;
+    m.rows[slot] = JointRows{};
+    if (++m.generation[slot] == 0) ++m.generation[slot];  // 0 is the null generation
+    m.alive[slot] = 1;
+    ++m.count;
+    m.filter_dirty = true;
+    return {slot, m.generation[slot]};
+}
+
+void JointSet::destroy(JointId id) {
+    impl_->at(id, "destroy_joint");
+    impl_->remove(id.index);
+}
+
+bool JointSet::valid(JointId id) const { return impl_->valid(id); }
+std::size_t JointSet::count() const { return impl_->count; }
+
+void JointSet::destroy_attached(std::uint32_t slot) {
+    Impl& m = *impl_;
+    for (std::uint32_t s = 0; s < m.joints.size(); ++s)
+        if (m.alive[s] && (m.joints[s].def.body_a.index == slot || m.joints[s].def.body_b.index == slot)) m.remove(s);
+}
+
+bool JointSet::filters_pair(std::uint32_t a, std::uint32_t b) const {
+    const Impl& m = *impl_;
+    if (m.count == 0) return false;
+    if (m.filter_dirty) {
+        m.filter_keys.clear();
+        for (std::uint32_t s = 0; s < m.joints.size(); ++s)
+            if (m.alive[s] && !m.joints[s].def.collide_connected)
+                m.filter_keys.push_back(Impl::pair_key(m.joints[s].def.body_a.index, m.joints[s].def.body_b.index));
+        std::sort(m.filter_keys.begin(), m.filter_keys.end());
+        m.filter_dirty = false;
+    }
+    return std::binary_search(m.filter_keys.begin(), m.filter_keys.end(), Impl::pair_key(a, b));
+}
+
+void JointSet::for_each_connection(const std::function<void(std::uint32_t, std::uint32_t)>& f) const {
+    const Impl& m = *impl_;
+    for (std::uint32_t s = 0; s < m.joints.size(); ++s)
+        if (m.alive[s]) f(m.joints[s].def.body_a.index, m.joints[s].def.body_b.index);
+}
+
+const JointDef& JointSet::def(JointId id) const { return impl_->at(id, "joint def").def; }
+Vec3 JointSet::reaction_force(JointId id) const { return impl_->at(id, "reaction_force").reaction_force; }
+Vec3 JointSet::reaction_torque(JointId id) const { return impl_->at(id, "reaction_torque").reaction_torque; }
+
+Real JointSet::position_error(JointId id, const RigidSystem& sys) const {
+    const JointData& j = impl_->at(id, "position_error");
+    const PairPose pose(sys.state(), j, j.def.body_a.index, j.def.body_b.index);
+    switch (j.def.type) {
+        case JointType::Slider: {
+            const Vec3 axis = pose.qa * j.axis_a;
+            return (pose.d - pose.d.dot(axis) * axis).norm();
+        }
+        case JointType::Distance: return std::abs(pose.d.norm() - j.def.length);
+        default: return pose.d.norm();
+    }
+}
+
+Real JointSet::angular_error(JointId id, const RigidSystem& sys) const {
+    const JointData& j = impl_->at(id, "angular_error");
+    const Quat qa = sys.state().q[j.def.body_a.index], qb = sys.state().q[j.def.body_b.index];
+    switch (j.def.type) {
+        case JointType::Hinge: {
+            const Vec3 a1 = qa * j.axis_a, a2 = qb * j.axis_b;
+            return std::atan2(a1.cross(a2).norm(), a1.dot(a2));
+        }
+        case JointType::Slider:
+        case JointType::Fixed: {
+            const Quat e = qb * (qa * j.rel0).conjugate();
+            return 2 * std::atan2(e.vec().norm(), std::abs(e.w()));
+        }
+        default: return 0;
+    }
+}
+
+Real JointSet::coordinate(JointId id, const RigidSystem& sys) const {
+    const JointData& j = impl_->at(id, "coordinate");
+    const PairPose pose(sys.state(), j, j.def.body_a.index, j.def.body_b.index);
+    switch (j.def.type) {
+        case JointType::Hinge: return hinge_angle(j, pose.qa, pose.qb);
+        case JointType::Slider: return pose.d.dot(pose.qa * j.axis_a);
+        case JointType::Distance: return pose.d.norm();
+        default: return 0;
+    }
+}
+
+void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
+    JointData& j = impl_->at(id, "set_motor");
+    check_motor(j.def, speed, max_force);
+    if (!enable) j.motor_impulse = 0;
+    j.def.enable_motor = enable;
+    j.def.motor_speed = speed;
+    j.def.max_motor_force = max_force;
+}
+
+void JointSet::prepare(RigidSystem& sys, Real h, const JointSoftness& softness, bool warm) {
+    Impl& m = *impl_;
+    const RigidSystem::State& st = sys.state();
+    m.h = h;
+    m.active.clear();
+    // Position correction of the bilateral rows: Baumgarte's beta/h, or a soft constraint.
+    const Softness soft = softness.soft ? make_soft(softness.hertz, softness.damping_ratio, h)
+                                        : Softness{softness.baumgarte / h, 1, 0};
+    for (std::uint32_t s = 0; s < m.joints.size(); ++s) {
+        if (!m.alive[s]) continue;
+        JointData& j = m.joints[s];
+        JointRows& r = m.rows[s];
+        r = JointRows{};
+        r.a = j.def.body_a.index;
+        r.b = j.def.body_b.index;
+        r.ma = st.inv_mass[r.a];
+        r.mb = st.inv_mass[r.b];
+        // Both ends immovable this step (static, kinematic or asleep): nothing to solve; the impulses are
+        // kept for when the bodies wake.
+        if (r.ma == 0 && r.mb == 0) continue;
+        r.ia = st.inv_inertia_world[r.a];
+        r.ib = st.inv_inertia_world[r.b];
+        r.h = h;
+        r.inv_h = 1 / h;
+        r.soft = soft;
+        r.spring = make_soft(j.def.frequency, j.def.damping_ratio, h);
+        r.max_motor_impulse = j.def.max_motor_force * h;
+        // A sub-stepping solver moves the bodies between passes: refresh the point block's mass then
+        // (Catto, Solver2D: a stale pivot mass adds jitter to ragdolls).
+        r.fresh_point_mass = softness.soft;
+        if (!warm) j.clear_impulses();
+        if (!j.def.enable_motor) j.motor_impulse = 0;
+        if (!j.def.enable_limit) j.lower_impulse = j.upper_impulse = 0;
+        switch (j.def.type) {
+            case JointType::Ball: prepare_ball(j, r, st); break;
+            case JointType::Hinge: prepare_hinge(j, r, st); break;
+            case JointType::Slider: prepare_slider(j, r, st); break;
+            case JointType::Distance: prepare_distance(j, r, st); break;
+            case JointType::Fixed: prepare_fixed(j, r, st); break;
+        }
+        m.active.push_back(s);
+    }
+}
+
+void JointSet::warm_start(RigidSystem& sys) {
+    Impl& m = *impl_;
+    RigidSystem::State& st = sys.state();
+    for (std::uint32_t s : m.active) {
+        if (!m.alive[s]) continue;  // destroyed since prepare()
+        const JointData& j = m.joints[s];
+        const JointRows& r = m.rows[s];
+        switch (j.def.type) {
+            case JointType::Ball: warm_start_ball(j, r, st); break;
+            case JointType::Hinge: warm_start_hinge(j, r, st); break;
+            case JointType::Slider: warm_start_slider(j, r, st); break;
+            case JointType::Distance: warm_start_distance(j, r, st); break;
+            case JointType::Fixed: warm_start_fixed(j, r, st); break;
+        }
+    }
+}
+
+void JointSet::solve(RigidSystem& sys, bool use_bias) {
+    Impl& m = *impl_;
+    RigidSystem::State& st = sys.state();
+    for (std::uint32_t s : m.active) {
+        if (!m.alive[s]) continue;
+        JointData& j = m.joints[s];
+        const JointRows& r = m.rows[s];
+        switch (j.def.type) {
+            case JointType::Ball: solve_ball(j, r, st, use_bias); break;
+            case JointType::Hinge: solve_hinge(j, r, st, use_bias); break;
+            case JointType::Slider: solve_slider(j, r, st, use_bias); break;
+            case JointType::Distance: solve_distance(j, r, st, use_bias); break;
+            case JointType::Fixed: solve_fixed(j, r, st, use_bias); break;
+        }
+    }
+}
+
+void JointSet::finish(Real /*h*/, std::vector<JointId>& broken) {
+    Impl& m = *impl_;
+    if (!(m.h > 0)) return;  // nothing prepared yet
+    // Impulses are per prepared (sub-)step, so the force is impulse / that step's length.
+    const Real inv_h = 1 / m.h;
+    for (std::uint32_t s : m.active) {
+        if (!m.alive[s]) continue;
+        JointData& j = m.joints[s];
+        const JointRows& r = m.rows[s];
+        const Real axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
+        Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+        switch (j.def.type) {
+            case JointType::Ball: f = j.point_impulse; break;
+            case JointType::Hinge:
+                f = j.point_impulse;
+                t = j.angular_impulse.x() * r.dir[1] + j.angular_impulse.y() * r.dir[2] + axial * r.dir[0];
+                break;
+            case JointType::Slider:
+                f = axial * r.dir[0] + j.pair_impulse[0] * r.dir[1] + j.pair_impulse[1] * r.dir[2];
+                t = j.angular_impulse;
+                break;
+            case JointType::Distance: f = j.axial_impulse * r.dir[0]; break;
+            case JointType::Fixed:
+                f = j.point_impulse;
+                t = j.angular_impulse;
+                break;
+        }
+        j.reaction_force = inv_h * f;
+        j.reaction_torque = inv_h * t;
+        const Real limit = j.def.break_force;
+        if (limit > 0 && (j.reaction_force.norm() > limit || j.reaction_torque.norm() > limit)) {
+            broken.push_back({s, m.generation[s]});
+            m.remove(s);
+        }
+    }
+}
+
+}  // namespace sinew
