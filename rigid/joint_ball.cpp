@@ -7,23 +7,23 @@
 
 namespace sinew::joint_detail {
 
-void prepare_ball(const JointData& j, JointRows& r, const RigidSystem::State& st) {
+void prepare_ball(const JointData& j, JointRows& r, const State& st) {
     const PairPose pose(st, j, r);
     r.point_mass = point_block_mass(r, pose.ra, pose.rb);
 }
 
-void warm_start_ball(const JointData& j, const JointRows& r, RigidSystem::State& st) {
+void warm_start_ball(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
-    PairVelocity p(st, r);
-    apply_linear(p, r, pose.ra, pose.rb, j.point_impulse);
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    apply_linear(p, r, pose.ra, pose.rb, acc.point);
+    p.store(pass, r);
 }
 
-void solve_ball(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias) {
+void solve_ball(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
-    PairVelocity p(st, r);
-    solve_point_block(p, j.point_impulse, r, pose, use_bias ? r.soft : Softness{});
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    solve_point_block(p, acc.point, r, pose, pass.bias);
+    p.store(pass, r);
 }
 
 }  // namespace sinew::joint_detail

@@ -8,27 +8,26 @@
 
 namespace sinew::joint_detail {
 
-void prepare_fixed(const JointData& j, JointRows& r, const RigidSystem::State& st) {
+void prepare_fixed(const JointData& j, JointRows& r, const State& st) {
     const PairPose pose(st, j, r);
     r.point_mass = point_block_mass(r, pose.ra, pose.rb);
     r.angular_mass = angular_block_mass(r);
 }
 
-void warm_start_fixed(const JointData& j, const JointRows& r, RigidSystem::State& st) {
+void warm_start_fixed(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
-    PairVelocity p(st, r);
-    apply_linear(p, r, pose.ra, pose.rb, j.point_impulse);
-    apply_angular(p, r, j.angular_impulse);
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    apply_linear(p, r, pose.ra, pose.rb, acc.point);
+    apply_angular(p, r, acc.angular);
+    p.store(pass, r);
 }
 
-void solve_fixed(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias) {
+void solve_fixed(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
-    PairVelocity p(st, r);
-    const Softness s = use_bias ? r.soft : Softness{};
-    solve_angular_block(p, j.angular_impulse, r, orientation_error(pose.qa, pose.qb, j.rel0), s);
-    solve_point_block(p, j.point_impulse, r, pose, s);
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    solve_angular_block(p, acc.angular, r, orientation_error(pose.qa, pose.qb, j.rel0), pass.bias);
+    solve_point_block(p, acc.point, r, pose, pass.bias);
+    p.store(pass, r);
 }
 
 }  // namespace sinew::joint_detail

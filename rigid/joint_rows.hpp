@@ -9,12 +9,15 @@
 // Each row solve is  lambda = -mass_scale K^-1 (C-dot + bias_rate C) - impulse_scale Lambda  (Catto 2011
 // soft constraints in Box2D's form; Baumgarte is bias_rate = beta/h, mass_scale = 1, impulse_scale = 0;
 // no bias is bias_rate = 0), and the accumulated Lambda is clamped where the row is an inequality.
+// The same row code runs on the bodies' velocities (velocity passes) and on pseudo-velocities that only
+// move positions (the position projection pass of rigid/joint_set.cpp), chosen by the RowPass.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "rigid/joint.hpp"
 #include "rigid/rigid_system.hpp"
@@ -42,6 +45,16 @@ inline Softness make_soft(Real hertz, Real zeta, Real h) {
     return {omega / a1, a2 * a3, a3};
 }
 
+/// Accumulated impulses of a joint's rows over the current (sub-)step (N s, or N m s for angular rows).
+struct JointImpulses {
+    Vec3 point = Vec3::Zero();    ///< ball, hinge, fixed: world, on B at the anchor
+    Vec3 angular = Vec3::Zero();  ///< fixed, slider: world; hinge: (x, y) = the two alignment rows
+    Real pair[2] = {0, 0};        ///< slider: the two rows perpendicular to the axis
+    Real axial = 0;               ///< distance row
+    Real motor = 0, lower = 0, upper = 0;
+    void clear() { *this = JointImpulses{}; }
+};
+
 /// A joint's fixed data (from its definition at creation) and its accumulated impulses, which persist
 /// across steps for warm starting and give the reaction force.
 struct JointData {
@@ -51,24 +64,10 @@ struct JointData {
     Vec3 perp_a[2];        ///< completes axis_a to an orthonormal basis (A's axes)
     Vec3 axis_b;           ///< the hinge axis in B's axes (coincides with axis_a in the world at creation)
     Quat rel0;             ///< q_A^-1 q_B at creation: the relative orientation angular rows keep
-
-    // Accumulated impulses of the current (sub-)step (N s, or N m s for angular rows).
-    Vec3 point_impulse = Vec3::Zero();    ///< ball, hinge, fixed: world, on B at the anchor
-    Vec3 angular_impulse = Vec3::Zero();  ///< fixed, slider: world; hinge: (x, y) = the two alignment rows
-    Real pair_impulse[2] = {0, 0};        ///< slider: the two rows perpendicular to the axis
-    Real axial_impulse = 0;               ///< distance row
-    Real motor_impulse = 0, lower_impulse = 0, upper_impulse = 0;
-
+    JointImpulses impulses;
     // Reaction of the last step (finish()), on B.
     Vec3 reaction_force = Vec3::Zero();   ///< N
     Vec3 reaction_torque = Vec3::Zero();  ///< N m (angular rows only; not r x F)
-
-    void clear_impulses() {
-        point_impulse.setZero();
-        angular_impulse.setZero();
-        pair_impulse[0] = pair_impulse[1] = 0;
-        axial_impulse = motor_impulse = lower_impulse = upper_impulse = 0;
-    }
 };
 
 /// A symmetric 2x2 matrix stored as (xx, xy, yy), for two coupled rows.
@@ -98,7 +97,6 @@ struct JointRows {
     Sym2 pair_mass;                    ///< inverse of the 2x2 block (hinge alignment / slider offsets)
     Real axial_mass = 0;               ///< 1 / K of the axial row
     Real h = 0, inv_h = 0;             ///< the (sub-)step length the rows were prepared for
-    Softness soft;                     ///< how the bilateral rows remove position error
     Softness spring;                   ///< distance joint spring (frequency > 0)
     Real max_motor_impulse = 0;        ///< max_motor_force * h
     bool fresh_point_mass = false;     ///< recompute the point block's K at the current arms (sub-stepping)
@@ -106,21 +104,31 @@ struct JointRows {
     Vec3 dir[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
 };
 
-/// Velocities of a joint's two bodies: loaded from the state at the start of a joint's rows and stored
-/// back at the end, so the rows of one joint work on registers, not on the arrays.
+/// What one pass over a joint's rows works on: the velocity arrays it reads and updates (the bodies'
+/// velocities, or pseudo-velocities in a position projection pass), how bilateral rows and violated
+/// limits remove position error, and whether motors and springs act.
+struct RowPass {
+    std::vector<Vec3>& v;
+    std::vector<Vec3>& w;
+    Softness bias;      ///< {} = no position bias (relax pass, or velocity pass before a projection)
+    bool drive = true;  ///< motors and springs: velocity passes only, never in a projection pass
+};
+
+/// Velocities of a joint's two bodies: loaded from the pass's arrays at the start of a joint's rows and
+/// stored back at the end, so the rows of one joint work on registers, not on the arrays.
 struct PairVelocity {
     Vec3 va, wa, vb, wb;
-    PairVelocity(const RigidSystem::State& st, const JointRows& r)
-        : va(st.v[r.a]), wa(st.w[r.a]), vb(st.v[r.b]), wb(st.w[r.b]) {}
-    void store(RigidSystem::State& st, const JointRows& r) const {
+    PairVelocity(const RowPass& pass, const JointRows& r)
+        : va(pass.v[r.a]), wa(pass.w[r.a]), vb(pass.v[r.b]), wb(pass.w[r.b]) {}
+    void store(RowPass& pass, const JointRows& r) const {
         // Immovable bodies keep their velocities (a kinematic body's is the game's).
         if (r.ma != 0) {
-            st.v[r.a] = va;
-            st.w[r.a] = wa;
+            pass.v[r.a] = va;
+            pass.w[r.a] = wa;
         }
         if (r.mb != 0) {
-            st.v[r.b] = vb;
-            st.w[r.b] = wb;
+            pass.v[r.b] = vb;
+            pass.w[r.b] = wb;
         }
     }
 };
@@ -215,12 +223,12 @@ inline void solve_angular_block(PairVelocity& p, Vec3& acc, const JointRows& r, 
 /// the limit holds); returns the change of the accumulated impulse `acc`. A joint short of its limit may
 /// approach it by c this step (speculative, as Box2D does: the row needs no activation threshold, is
 /// inactive in effect until the limit would be crossed, and a fast joint cannot jump the limit); one past
-/// it is pushed back with the joint's softness, and in an unbiased pass only stopped.
-inline Real solve_limit_row(Real& acc, Real mass, Real cdot, Real c, const Softness& s, Real inv_h, bool use_bias) {
+/// it is pushed back with the pass's bias `s` ({} = only stopped).
+inline Real solve_limit_row(Real& acc, Real mass, Real cdot, Real c, const Softness& s, Real inv_h) {
     Real bias = 0, mass_scale = 1, impulse_scale = 0;
     if (c > 0) {
         bias = c * inv_h;  // speculative: may close the gap this step
-    } else if (use_bias) {
+    } else {
         bias = s.bias_rate * c;
         mass_scale = s.mass_scale;
         impulse_scale = s.impulse_scale;
@@ -241,30 +249,34 @@ inline Real solve_motor_row(Real& acc, Real mass, Real cdot, Real speed, Real ma
 }
 
 // ---- per-type rows (rigid/joint_<type>.cpp) --------------------------------------------------------------
-// prepare_*: effective masses at the current poses (rows.a/b, masses and softness already set).
-// Also fills rows.dir with the world directions of its scalar rows, for the reaction force.
-// warm_start_*: applies the accumulated impulses. solve_*: one pass over the joint's rows.
+// prepare_*: effective masses at the current poses (rows.a/b and the masses already set); also fills
+// rows.dir with the world directions of its scalar rows, for the reaction force.
+// warm_start_*: applies the accumulated impulses `acc`. solve_*: one pass over the joint's rows,
+// accumulating into `acc`. Poses are read from the state (current, so a sub-stepping solver's joints
+// see the error after its position updates); velocities come from the pass.
 
-void prepare_ball(const JointData& j, JointRows& r, const RigidSystem::State& st);
-void warm_start_ball(const JointData& j, const JointRows& r, RigidSystem::State& st);
-void solve_ball(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias);
+using State = RigidSystem::State;
 
-void prepare_hinge(const JointData& j, JointRows& r, const RigidSystem::State& st);
-void warm_start_hinge(const JointData& j, const JointRows& r, RigidSystem::State& st);
-void solve_hinge(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias);
+void prepare_ball(const JointData& j, JointRows& r, const State& st);
+void warm_start_ball(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+void solve_ball(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+
+void prepare_hinge(const JointData& j, JointRows& r, const State& st);
+void warm_start_hinge(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+void solve_hinge(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
 /// Hinge angle (rad, (-pi, pi]) of B relative to A about the axis, 0 at creation.
 Real hinge_angle(const JointData& j, const Quat& qa, const Quat& qb);
 
-void prepare_slider(const JointData& j, JointRows& r, const RigidSystem::State& st);
-void warm_start_slider(const JointData& j, const JointRows& r, RigidSystem::State& st);
-void solve_slider(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias);
+void prepare_slider(const JointData& j, JointRows& r, const State& st);
+void warm_start_slider(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+void solve_slider(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
 
-void prepare_distance(const JointData& j, JointRows& r, const RigidSystem::State& st);
-void warm_start_distance(const JointData& j, const JointRows& r, RigidSystem::State& st);
-void solve_distance(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias);
+void prepare_distance(const JointData& j, JointRows& r, const State& st);
+void warm_start_distance(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+void solve_distance(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
 
-void prepare_fixed(const JointData& j, JointRows& r, const RigidSystem::State& st);
-void warm_start_fixed(const JointData& j, const JointRows& r, RigidSystem::State& st);
-void solve_fixed(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias);
+void prepare_fixed(const JointData& j, JointRows& r, const State& st);
+void warm_start_fixed(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
+void solve_fixed(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass);
 
 }  // namespace sinew::joint_detail

@@ -25,6 +25,11 @@ struct NPoint {
     Vec3 ra, rb;
     Real depth;        // at the candidate pose used for detection
     Real vn_detected;  // normal velocity when detected
+    // Impulses applied at this point during the current phase: friction is bounded by mu times the
+    // normal impulse accumulated so far (seed 001 ch.5), not just the last pass's, or a resting point
+    // whose passes push little could not hold any friction.
+    Real jn;
+    Vec3 jt;
 };
 
 struct NContact {
@@ -47,7 +52,7 @@ private:
     Real normal_velocity(const RigidSystem::State& st, const NContact& c, const NPoint& p) const;
     /// One impulse at one point with restitution e, if the pair approaches and overlaps at the
     /// candidate pose. `frozen_a/b` treat a body as having infinite mass (shock propagation).
-    void resolve_point(RigidSystem::State& st, const NContact& c, const NPoint& p, Real e, Real h, bool frozen_a,
+    void resolve_point(RigidSystem::State& st, const NContact& c, NPoint& p, Real e, Real h, bool frozen_a,
                        bool frozen_b);
     void compute_levels(const RigidSystem& sys);
 
@@ -78,6 +83,8 @@ void NewtonImpulseSolver::gather(RigidSystem& sys, Real h) {
             p.ra = cm.manifold.points[k].position - xa;
             p.rb = cm.manifold.points[k].position - xb;
             p.depth = cm.manifold.points[k].depth;
+            p.jn = 0;
+            p.jt.setZero();
             p.vn_detected = 0;
             p.vn_detected = normal_velocity(st, c, p);
         }
@@ -88,14 +95,11 @@ Real NewtonImpulseSolver::normal_velocity(const RigidSystem::State& st, const NC
     return (st.v[c.b] + st.w[c.b].cross(p.rb) - st.v[c.a] - st.w[c.a].cross(p.ra)).dot(c.n);
 }
 
-void NewtonImpulseSolver::resolve_point(RigidSystem::State& st, const NContact& c, const NPoint& p, Real e, Real h,
+void NewtonImpulseSolver::resolve_point(RigidSystem::State& st, const NContact& c, NPoint& p, Real e, Real h,
                                         bool frozen_a, bool frozen_b) {
     const std::uint32_t a = c.a, b = c.b;
-    Vec3 dv = st.v[b] + st.w[b].cross(p.rb) - st.v[a] - st.w[a].cross(p.ra);
-    Real vn = dv.dot(c.n);
-    if (vn >= 0) return;  // separating: skipped this pass, not removed
-    if (p.depth - h * (vn - p.vn_detected) <= 0) return;  // not touching at the candidate pose
     const Real wa = frozen_a ? 0 : st.inv_mass[a], wb = frozen_b ? 0 : st.inv_mass[b];
+    if (wa + wb == 0) return;
     const Mat3& ia = st.inv_inertia_world[a];
     const Mat3& ib = st.inv_inertia_world[b];
     auto k_along = [&](const Vec3& d) {
@@ -104,27 +108,45 @@ void NewtonImpulseSolver::resolve_point(RigidSystem::State& st, const NContact& 
         if (!frozen_b) k += d.dot((ib * p.rb.cross(d)).cross(p.rb));
         return k;
     };
-    Real kn = k_along(c.n);
-    if (kn <= 0) return;
-    // Mirtich / Guendelman: j = -(1 + e) v_n / (n . K n).
-    Real j = -(1 + e) * vn / kn;
-    Vec3 impulse = j * c.n;
-    // Coulomb friction: stop the sliding if the cone allows, else slide with |j_t| = mu j.
-    Vec3 vt = dv - vn * c.n;
+    auto apply = [&](const Vec3& impulse) {
+        if (!frozen_a) {
+            st.v[a] -= wa * impulse;
+            st.w[a] -= ia * p.ra.cross(impulse);
+        }
+        if (!frozen_b) {
+            st.v[b] += wb * impulse;
+            st.w[b] += ib * p.rb.cross(impulse);
+        }
+    };
+    auto rel_vel = [&] { return Vec3(st.v[b] + st.w[b].cross(p.rb) - st.v[a] - st.w[a].cross(p.ra)); };
+    Vec3 dv = rel_vel();
+    Real vn = dv.dot(c.n);
+    // Separating pairs are skipped for this pass, not removed; so are points not touching at the
+    // candidate pose (depth updated to first order from the change of normal velocity).
+    if (vn < 0 && p.depth - h * (vn - p.vn_detected) > 0) {
+        Real kn = k_along(c.n);
+        if (kn > 0) {
+            // Mirtich / Guendelman: j = -(1 + e) v_n / (n . K n).
+            Real j = -(1 + e) * vn / kn;
+            apply(j * c.n);
+            p.jn += j;
+            dv = rel_vel();
+        }
+    }
+    if (p.jn <= 0 || c.friction <= 0) return;
+    // Coulomb friction: stop the sliding if the cone (about the accumulated normal impulse) allows.
+    Vec3 vt = dv - dv.dot(c.n) * c.n;
     Real vt_len = vt.norm();
-    if (vt_len > Real(1e-9) && c.friction > 0) {
-        Vec3 t = vt / vt_len;
-        Real kt = k_along(t);
-        if (kt > 0) impulse -= std::min(vt_len / kt, c.friction * j) * t;
-    }
-    if (!frozen_a) {
-        st.v[a] -= wa * impulse;
-        st.w[a] -= ia * p.ra.cross(impulse);
-    }
-    if (!frozen_b) {
-        st.v[b] += wb * impulse;
-        st.w[b] += ib * p.rb.cross(impulse);
-    }
+    if (vt_len < Real(1e-9)) return;
+    Vec3 t = vt / vt_len;
+    Real kt = k_along(t);
+    if (kt <= 0) return;
+    Vec3 jt = p.jt - (vt_len / kt) * t;
+    Real limit = c.friction * p.jn;
+    Real len = jt.norm();
+    if (len > limit) jt *= limit / len;
+    apply(jt - p.jt);
+    p.jt = jt;
 }
 
 void NewtonImpulseSolver::before_integrate_velocities(RigidSystem& sys, Real h) {
@@ -134,7 +156,7 @@ void NewtonImpulseSolver::before_integrate_velocities(RigidSystem& sys, Real h) 
     gather(sys, h);
     RigidSystem::State& st = sys.state();
     for (int it = 0; it < set.newton_collision_iterations; ++it)
-        for (const NContact& c : contacts_)
+        for (NContact& c : contacts_)
             for (int k = 0; k < c.count; ++k) {
                 Real vn = normal_velocity(st, c, c.p[k]);
                 // Elastic collision; impacts slower than the threshold do not bounce.
@@ -188,7 +210,7 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     for (int i = 1; i <= iters; ++i) {
         if (have_joints) joints.solve(sys, true);
         const Real e = Real(i) / Real(iters) - 1;  // rises from -1 + 1/N to 0
-        for (const NContact& c : contacts_)
+        for (NContact& c : contacts_)
             for (int k = 0; k < c.count; ++k) resolve_point(st, c, c.p[k], e, h, false, false);
     }
     if (!set.newton_shock_propagation) return;
@@ -196,7 +218,7 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     // weight of a stack never pushes down into the bodies below it.
     compute_levels(sys);
     for (std::uint32_t ci : order_) {
-        const NContact& c = contacts_[ci];
+        NContact& c = contacts_[ci];
         int la = level_[c.a], lb = level_[c.b];
         for (int k = 0; k < c.count; ++k) resolve_point(st, c, c.p[k], 0, h, la < lb, lb < la);
     }

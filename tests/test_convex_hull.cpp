@@ -33,25 +33,34 @@ Real hull_volume(const ConvexHullData& h) {
 /// has a unit normal, and lies on its plane; every undirected edge borders exactly two faces, used once
 /// in each direction.
 void check_topology(const ConvexHullData& h, Real tol) {
+    // Violations are counted and checked once, so a failure says how many and the pass count stays readable.
     std::map<std::pair<int, int>, int> directed;
+    int small = 0, non_unit = 0, off_plane = 0, clockwise = 0;
     for (const auto& f : h.faces) {
-        REQUIRE(f.verts.size() >= 3);
-        CHECK(std::abs(f.normal.norm() - 1) < kTol);
+        if (f.verts.size() < 3) ++small;
+        if (std::abs(f.normal.norm() - 1) >= kTol) ++non_unit;
         Vec3 newell = Vec3::Zero();
         const Vec3& o = h.vertices[f.verts[0]];
         for (std::size_t i = 0; i < f.verts.size(); ++i) {
             newell += (h.vertices[f.verts[i]] - o).cross(h.vertices[f.verts[(i + 1) % f.verts.size()]] - o);
-            CHECK(std::abs(f.normal.dot(h.vertices[f.verts[i]]) - f.offset) < tol);
+            if (std::abs(f.normal.dot(h.vertices[f.verts[i]]) - f.offset) >= tol) ++off_plane;
             ++directed[{f.verts[i], f.verts[(i + 1) % f.verts.size()]}];
         }
-        CHECK(newell.normalized().dot(f.normal) > Real(0.999));
+        if (newell.normalized().dot(f.normal) <= Real(0.999)) ++clockwise;
     }
-    for (const auto& [e, count] : directed) {
-        CHECK(count == 1);
-        CHECK(directed.count({e.second, e.first}) == 1);
-    }
+    CHECK(small == 0);
+    CHECK(non_unit == 0);
+    CHECK(off_plane == 0);
+    CHECK(clockwise == 0);
+    int unpaired = 0;
+    for (const auto& [e, count] : directed)
+        if (count != 1 || directed.count({e.second, e.first}) != 1) ++unpaired;
+    CHECK(unpaired == 0);
     CHECK(directed.size() == 2 * h.edges.size());
-    for (const auto& e : h.edges) CHECK(directed.count({e.first, e.second}) == 1);
+    int unknown_edges = 0;
+    for (const auto& e : h.edges)
+        if (directed.count({e.first, e.second}) != 1) ++unknown_edges;
+    CHECK(unknown_edges == 0);
 }
 
 }  // namespace
@@ -225,23 +234,25 @@ TEST_CASE("triangle mesh BVH query matches a brute-force box test", "[mesh]") {
 
     // Structure: each triangle in exactly one leaf of at most 4, children inside parents, shallow tree.
     std::vector<int> seen(n, 0);
+    int bad_leaves = 0, loose_boxes = 0;
     for (const auto& node : m.nodes) {
         if (node.left < 0) {
-            CHECK(node.count >= 1);
-            CHECK(node.count <= 4);
+            if (node.count < 1 || node.count > 4) ++bad_leaves;
             for (int i = 0; i < node.count; ++i) {
                 ++seen[m.tri_order[node.first + i]];
-                CHECK(node.box.contains(tri_box(m.triangle(m.tri_order[node.first + i]))));
+                if (!node.box.contains(tri_box(m.triangle(m.tri_order[node.first + i])))) ++loose_boxes;
             }
-        } else {
-            CHECK(node.box.contains(m.nodes[node.left].box));
-            CHECK(node.box.contains(m.nodes[node.right].box));
+        } else if (!node.box.contains(m.nodes[node.left].box) || !node.box.contains(m.nodes[node.right].box)) {
+            ++loose_boxes;
         }
     }
+    CHECK(bad_leaves == 0);
+    CHECK(loose_boxes == 0);
     CHECK(std::all_of(seen.begin(), seen.end(), [](int c) { return c == 1; }));
     // Median split: depth = ceil(log2(3000 / 4)) + 1 = 11, far below the 64-slot query stack.
     CHECK(bvh_depth(m, 0) <= 11);
 
+    int mismatches = 0, too_many_calls = 0;
     for (int q = 0; q < 200; ++q) {
         Vec3 c(u(rng), u(rng), u(rng));
         Vec3 e = Vec3(std::abs(s(rng)), std::abs(s(rng)), std::abs(s(rng))) * Real(q % 4 == 0 ? 6 : 2);
@@ -256,9 +267,11 @@ TEST_CASE("triangle mesh BVH query matches a brute-force box test", "[mesh]") {
             ++calls;
             if (tri_box(m.triangle(t)).overlaps(box)) found.insert(t);
         });
-        CHECK(found == brute);
-        CHECK(calls <= static_cast<int>(brute.size()) * 4 + 4 * 8);
+        if (found != brute) ++mismatches;
+        if (calls > static_cast<int>(brute.size()) * 4 + 4 * 8) ++too_many_calls;
     }
+    CHECK(mismatches == 0);
+    CHECK(too_many_calls == 0);
 }
 
 TEST_CASE("triangle mesh validation", "[mesh]") {

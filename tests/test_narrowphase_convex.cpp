@@ -329,11 +329,24 @@ TEST_CASE("box resting on a two-triangle ground mesh", "[convex][triangle]") {
     REQUIRE(narrow::convex_triangle(cube, over, ground.mesh->triangle(1), Real(0.02), m));
     CHECK(m.count == 4);
     CHECK((m.normal - Vec3(0, -1, 0)).norm() < kTol);
+    const Shape cap = make_capsule(Real(0.3), Real(0.1));
+    REQUIRE(narrow::convex_triangle(cap, at(Vec3(1, 0.09, -1), axis_angle(kPi / 2, Vec3::UnitX())),
+                                    ground.mesh->triangle(1), Real(0.02), m));
+    CHECK(m.count == 2);  // lying along z: both ends of the segment
+    for (int i = 0; i < m.count; ++i) CHECK(m.points[i].depth == Approx(0.01).margin(kTol));
+    CHECK((m.normal - Vec3(0, -1, 0)).norm() < kTol);
     const Shape ball = make_sphere(0.5);
     REQUIRE(narrow::convex_triangle(ball, at(Vec3(1, 0.45, -1)), ground.mesh->triangle(1), Real(0.02), m));
     REQUIRE(m.count == 1);
     CHECK(m.points[0].depth == Approx(0.05).margin(kTol));
     CHECK((m.normal - Vec3(0, -1, 0)).norm() < kTol);
+
+    // Behind the triangle (centre below its plane) the face normal is not forced: a shape poking up
+    // through the ground from below is pushed back down, normal from it to the triangle pointing up.
+    REQUIRE(narrow::convex_triangle(ball, at(Vec3(1, -0.45, -1)), ground.mesh->triangle(1), Real(0.02), m));
+    REQUIRE(m.count == 1);
+    CHECK(m.points[0].depth == Approx(0.05).margin(kTol));
+    CHECK((m.normal - Vec3(0, 1, 0)).norm() < kTol);
 }
 
 TEST_CASE("non-convex shapes are refused by convex_convex", "[convex]") {

@@ -4,8 +4,13 @@
 // Physics needs polygonal faces (reference-face clipping wants the cube's 6 quads, not 12 triangles) and
 // a hull that is robust to the noise of real input. Both are handled with one distance tolerance `tol`
 // relative to the size of the point cloud:
-//   * a point is "outside" a face only if it is more than `tol` above the face plane, so duplicate,
-//     interior and nearly coplanar points never become vertices;
+//   * a point becomes a vertex (the "eye" of an expansion step) only if it is more than `tol` above a
+//     face, so duplicate, interior and nearly coplanar points never become vertices; which faces the eye
+//     sees is decided by the exact sign, which keeps the triangle hull convex up to rounding;
+//   * points at most `tol` above a face are kept in its conflict list and checked at the end, since a
+//     point within tol of a thin early hull can lie far outside the final one (beyond a sharp edge);
+//   * the finished triangle hull is checked for convexity at every edge; if rounding folded a sliver
+//     over, the hull is rebuilt with a larger tol;
 //   * after the triangle hull is built, adjacent triangles whose vertices lie within `tol` of a seed
 //     plane are merged into one polygon (the boundary loop of the merged triangles), and vertices left on
 //     only two faces (collinear on an edge) are removed.
@@ -45,7 +50,7 @@ struct HullTri {
     V3 n;        // outward unit normal
     double d;    // plane: n . x = d
     double area2;  // twice the area (orders the merge seeds)
-    std::vector<int> outside;  // conflict list: points more than tol above this plane
+    std::vector<int> outside;  // conflict list: points above this plane (and assigned to it)
     bool alive = true;
     int mark = 0;  // per-iteration visit mark
 };
