@@ -19,7 +19,7 @@ constexpr Real kMinSeparation = Real(1e-6);
 
 }  // namespace
 
-void prepare_distance(const JointData& j, JointRows& r, const RigidSystem::State& st) {
+void prepare_distance(const JointData& j, JointRows& r, const State& st) {
     const PairPose pose(st, j, r);
     const Real len = pose.d.norm();
     const Vec3 n = len > kMinSeparation ? Vec3(pose.d / len) : Vec3::Zero();
@@ -27,28 +27,31 @@ void prepare_distance(const JointData& j, JointRows& r, const RigidSystem::State
     r.dir[0] = n;
 }
 
-void warm_start_distance(const JointData& j, const JointRows& r, RigidSystem::State& st) {
+void warm_start_distance(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st,
+                         RowPass& pass) {
     const PairPose pose(st, j, r);
     const Real len = pose.d.norm();
     if (!(len > kMinSeparation)) return;
-    PairVelocity p(st, r);
-    apply_linear(p, r, pose.ra, pose.rb, (j.axial_impulse / len) * pose.d);
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    apply_linear(p, r, pose.ra, pose.rb, (acc.axial / len) * pose.d);
+    p.store(pass, r);
 }
 
-void solve_distance(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias) {
+void solve_distance(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
+    const bool spring = j.def.frequency > 0;
+    if (spring && !pass.drive) return;  // a spring has no position to project to
     const PairPose pose(st, j, r);
     const Real len = pose.d.norm();
     if (!(len > kMinSeparation)) return;
     const Vec3 n = pose.d / len;
-    PairVelocity p(st, r);
+    PairVelocity p(pass, r);
     const Real cdot = n.dot(p.vb + p.wb.cross(pose.rb) - p.va - p.wa.cross(pose.ra));
-    const Softness s = j.def.frequency > 0 ? r.spring : (use_bias ? r.soft : Softness{});
-    const Real c = len - j.def.length;
-    const Real lambda = -s.mass_scale * r.axial_mass * (cdot + s.bias_rate * c) - s.impulse_scale * j.axial_impulse;
-    j.axial_impulse += lambda;
+    const Softness& s = spring ? r.spring : pass.bias;
+    const Real c = s.cap(len - j.def.length);
+    const Real lambda = -s.mass_scale * r.axial_mass * (cdot + s.bias_rate * c) - s.impulse_scale * acc.axial;
+    acc.axial += lambda;
     apply_linear(p, r, pose.ra, pose.rb, lambda * n);
-    p.store(st, r);
+    p.store(pass, r);
 }
 
 }  // namespace sinew::joint_detail

@@ -39,7 +39,7 @@ Real hinge_angle(const JointData& j, const Quat& qa, const Quat& qb) {
     return 2 * std::atan2(sign * e.vec().dot(j.axis_a), sign * e.w());
 }
 
-void prepare_hinge(const JointData& j, JointRows& r, const RigidSystem::State& st) {
+void prepare_hinge(const JointData& j, JointRows& r, const State& st) {
     const PairPose pose(st, j, r);
     r.point_mass = point_block_mass(r, pose.ra, pose.rb);
     const HingeAxes ax(j, pose.qa, pose.qb);
@@ -55,55 +55,55 @@ void prepare_hinge(const JointData& j, JointRows& r, const RigidSystem::State& s
     r.dir[2] = ax.c[1];
 }
 
-void warm_start_hinge(const JointData& j, const JointRows& r, RigidSystem::State& st) {
+void warm_start_hinge(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
     const HingeAxes ax(j, pose.qa, pose.qb);
-    PairVelocity p(st, r);
-    apply_linear(p, r, pose.ra, pose.rb, j.point_impulse);
-    const Real axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
-    apply_angular(p, r, j.angular_impulse.x() * ax.c[0] + j.angular_impulse.y() * ax.c[1] + axial * ax.a1);
-    p.store(st, r);
+    PairVelocity p(pass, r);
+    apply_linear(p, r, pose.ra, pose.rb, acc.point);
+    const Real axial = acc.motor + acc.lower - acc.upper;
+    apply_angular(p, r, acc.angular.x() * ax.c[0] + acc.angular.y() * ax.c[1] + axial * ax.a1);
+    p.store(pass, r);
 }
 
-void solve_hinge(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias) {
+void solve_hinge(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
     const HingeAxes ax(j, pose.qa, pose.qb);
-    PairVelocity p(st, r);
+    PairVelocity p(pass, r);
     const JointDef& d = j.def;
+    const Softness& s = pass.bias;
 
-    if (d.enable_motor) {
+    if (d.enable_motor && pass.drive) {
         const Real cdot = ax.a1.dot(p.wb - p.wa);
-        const Real dl = solve_motor_row(j.motor_impulse, r.axial_mass, cdot, d.motor_speed, r.max_motor_impulse);
+        const Real dl = solve_motor_row(acc.motor, r.axial_mass, cdot, d.motor_speed, r.max_motor_impulse);
         apply_angular(p, r, dl * ax.a1);
     }
     if (d.enable_limit) {
         const Real angle = hinge_angle(j, pose.qa, pose.qb);
         {  // lower: C = angle - lower >= 0
             const Real cdot = ax.a1.dot(p.wb - p.wa);
-            const Real dl = solve_limit_row(j.lower_impulse, r.axial_mass, cdot, angle - d.lower, r.soft, r.inv_h, use_bias);
+            const Real dl = solve_limit_row(acc.lower, r.axial_mass, cdot, angle - d.lower, s, r.inv_h);
             apply_angular(p, r, dl * ax.a1);
         }
         {  // upper: C = upper - angle >= 0, so J is negated
             const Real cdot = ax.a1.dot(p.wa - p.wb);
-            const Real dl = solve_limit_row(j.upper_impulse, r.axial_mass, cdot, d.upper - angle, r.soft, r.inv_h, use_bias);
+            const Real dl = solve_limit_row(acc.upper, r.axial_mass, cdot, d.upper - angle, s, r.inv_h);
             apply_angular(p, r, -dl * ax.a1);
         }
     }
-    {  // axis alignment, 2x2 block
-        const Softness s = use_bias ? r.soft : Softness{};
+    {  // axis alignment, 2x2 block: C_i = a_2 . b_i
         const Vec3 dw = p.wb - p.wa;
-        const Real rhs0 = ax.c[0].dot(dw) + s.bias_rate * ax.a2.dot(ax.b[0]);
-        const Real rhs1 = ax.c[1].dot(dw) + s.bias_rate * ax.a2.dot(ax.b[1]);
+        const Real rhs0 = ax.c[0].dot(dw) + s.bias_rate * s.cap(ax.a2.dot(ax.b[0]));
+        const Real rhs1 = ax.c[1].dot(dw) + s.bias_rate * s.cap(ax.a2.dot(ax.b[1]));
         Real m0, m1;
         r.pair_mass.mul(rhs0, rhs1, m0, m1);
-        const Real l0 = -s.mass_scale * m0 - s.impulse_scale * j.angular_impulse.x();
-        const Real l1 = -s.mass_scale * m1 - s.impulse_scale * j.angular_impulse.y();
-        j.angular_impulse.x() += l0;
-        j.angular_impulse.y() += l1;
+        const Real l0 = -s.mass_scale * m0 - s.impulse_scale * acc.angular.x();
+        const Real l1 = -s.mass_scale * m1 - s.impulse_scale * acc.angular.y();
+        acc.angular.x() += l0;
+        acc.angular.y() += l1;
         apply_angular(p, r, l0 * ax.c[0] + l1 * ax.c[1]);
     }
-    solve_point_block(p, j.point_impulse, r, pose, use_bias ? r.soft : Softness{});
-    p.store(st, r);
+    solve_point_block(p, acc.point, r, pose, s);
+    p.store(pass, r);
 }
 
 }  // namespace sinew::joint_detail

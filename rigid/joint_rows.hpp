@@ -29,6 +29,12 @@ struct Softness {
     Real bias_rate = 0;      ///< 1/s: multiplies the position error C
     Real mass_scale = 1;
     Real impulse_scale = 0;
+    Real max_error = kRealMax;  ///< m or rad: larger errors are corrected this much per pass (projection)
+    Real cap(Real c) const { return std::clamp(c, -max_error, max_error); }
+    Vec3 cap(const Vec3& c) const {
+        const Real n2 = c.squaredNorm();
+        return n2 > max_error * max_error ? Vec3(c * (max_error / std::sqrt(n2))) : c;
+    }
 };
 
 /// Catto 2011 soft constraint of natural frequency `hertz` and damping ratio `zeta` over a step h:
@@ -197,7 +203,7 @@ inline void solve_point_block(PairVelocity& p, Vec3& acc, const JointRows& r, co
                               const Softness& s) {
     const Vec3 cdot = p.vb + p.wb.cross(pose.rb) - p.va - p.wa.cross(pose.ra);
     const Mat3 mass = r.fresh_point_mass ? point_block_mass(r, pose.ra, pose.rb) : r.point_mass;
-    const Vec3 impulse = -s.mass_scale * (mass * (cdot + s.bias_rate * pose.d)) - s.impulse_scale * acc;
+    const Vec3 impulse = -s.mass_scale * (mass * (cdot + s.bias_rate * s.cap(pose.d))) - s.impulse_scale * acc;
     acc += impulse;
     apply_linear(p, r, pose.ra, pose.rb, impulse);
 }
@@ -214,7 +220,7 @@ inline Vec3 orientation_error(const Quat& qa, const Quat& qb, const Quat& rel0) 
 /// Angular block: keeps the relative orientation at rel0 (fixed and slider joints).
 inline void solve_angular_block(PairVelocity& p, Vec3& acc, const JointRows& r, const Vec3& c, const Softness& s) {
     const Vec3 cdot = p.wb - p.wa;
-    const Vec3 impulse = -s.mass_scale * (r.angular_mass * (cdot + s.bias_rate * c)) - s.impulse_scale * acc;
+    const Vec3 impulse = -s.mass_scale * (r.angular_mass * (cdot + s.bias_rate * s.cap(c))) - s.impulse_scale * acc;
     acc += impulse;
     apply_angular(p, r, impulse);
 }
@@ -229,7 +235,7 @@ inline Real solve_limit_row(Real& acc, Real mass, Real cdot, Real c, const Softn
     if (c > 0) {
         bias = c * inv_h;  // speculative: may close the gap this step
     } else {
-        bias = s.bias_rate * c;
+        bias = s.bias_rate * s.cap(c);
         mass_scale = s.mass_scale;
         impulse_scale = s.impulse_scale;
     }

@@ -2,9 +2,11 @@
 //   prepare()   once, with the step (or sub-step) length: anchors, axes, effective masses, biases
 //   warm_start() once per (sub-)step, before iterating, if warm starting is on
 //   solve()     in each iteration, interleaved with the contacts (joints first, as Box2D does)
-//   finish()    once per step: breakable joints whose constraint force exceeded the threshold break
+//   finish()    once per step, after integration: position projection (split-impulse mode), reaction
+//               forces, and breakable joints whose constraint force exceeded the threshold break
 // Velocities are read and written in the RigidSystem::State arrays; poses are read from it, so a
-// sub-stepping solver that integrated positions sees the current error.
+// sub-stepping solver that integrated positions sees the current error. The row math is in
+// rigid/joint_rows.hpp and rigid/joint_<type>.cpp.
 #pragma once
 
 #include <functional>
@@ -19,7 +21,10 @@ class RigidSystem;
 
 /// How joint position error is removed.
 struct JointSoftness {
-    bool soft = false;        ///< false: Baumgarte bias -(beta/h) C; true: Catto 2011 soft constraint
+    /// false: Baumgarte's fraction beta of the error per step, as a velocity bias -(beta/h) C, or, with
+    /// sequential impulses and split impulses, as a position projection after the step (finish());
+    /// true: Catto 2011 soft constraint of `hertz` and `damping_ratio` in the biased passes.
+    bool soft = false;
     Real baumgarte = Real(0.2);
     Real hertz = 60;          ///< soft: stiffness (Hz)
     Real damping_ratio = 2;   ///< soft
@@ -67,13 +72,17 @@ public:
     void prepare(RigidSystem& sys, Real h, const JointSoftness& softness, bool warm);
     void warm_start(RigidSystem& sys);
     void solve(RigidSystem& sys, bool use_bias);
-    /// Records each joint's reaction force (accumulated impulse / the h given to prepare(), which is the
-    /// sub-step for a sub-stepping solver since its impulses are per sub-step) and breaks joints over
-    /// their break_force; appends their ids to `broken`. `h` is the full step; the impulses are divided by
-    /// the length given to prepare(), which is what they were accumulated over.
+    /// Once per step, after positions are integrated: projects the joints' position error out when
+    /// prepare() chose projection (sequential impulses with split impulses: the system given to prepare()
+    /// is updated), records each joint's reaction force, and breaks joints over their break_force,
+    /// appending their ids to `broken`. `h` is the full step; the impulses are divided by the length
+    /// given to prepare() (the sub-step for a sub-stepping solver), which is what they accumulated over.
     void finish(Real h, std::vector<JointId>& broken);
 
 private:
+    /// Position projection sweeps per step when prepare() chose projection (see joint_set.cpp).
+    static constexpr int kProjectionSweeps = 2;
+    void project_positions();
     struct Impl;  // joints and their prepared rows, defined in joint_set.cpp
     std::unique_ptr<Impl> impl_;
 };

@@ -32,7 +32,7 @@ struct SliderRows {
 
 }  // namespace
 
-void prepare_slider(const JointData& j, JointRows& r, const RigidSystem::State& st) {
+void prepare_slider(const JointData& j, JointRows& r, const State& st) {
     const PairPose pose(st, j, r);
     const SliderRows rows(j, pose);
     Sym2 k;
@@ -45,57 +45,54 @@ void prepare_slider(const JointData& j, JointRows& r, const RigidSystem::State& 
     for (int i = 0; i < 3; ++i) r.dir[i] = rows.n[i];
 }
 
-void warm_start_slider(const JointData& j, const JointRows& r, RigidSystem::State& st) {
+void warm_start_slider(const JointData& j, const JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
     const SliderRows rows(j, pose);
-    PairVelocity p(st, r);
-    const Real axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
+    PairVelocity p(pass, r);
+    const Real axial = acc.motor + acc.lower - acc.upper;
     apply_linear_row(p, r, rows.n[0], rows.sa[0], rows.sb[0], axial);
-    apply_linear_row(p, r, rows.n[1], rows.sa[1], rows.sb[1], j.pair_impulse[0]);
-    apply_linear_row(p, r, rows.n[2], rows.sa[2], rows.sb[2], j.pair_impulse[1]);
-    apply_angular(p, r, j.angular_impulse);
-    p.store(st, r);
+    apply_linear_row(p, r, rows.n[1], rows.sa[1], rows.sb[1], acc.pair[0]);
+    apply_linear_row(p, r, rows.n[2], rows.sa[2], rows.sb[2], acc.pair[1]);
+    apply_angular(p, r, acc.angular);
+    p.store(pass, r);
 }
 
-void solve_slider(JointData& j, const JointRows& r, RigidSystem::State& st, bool use_bias) {
+void solve_slider(const JointData& j, JointImpulses& acc, const JointRows& r, const State& st, RowPass& pass) {
     const PairPose pose(st, j, r);
     const SliderRows rows(j, pose);
-    PairVelocity p(st, r);
+    PairVelocity p(pass, r);
     const JointDef& d = j.def;
-    const Softness s = use_bias ? r.soft : Softness{};
+    const Softness& s = pass.bias;
 
-    if (d.enable_motor) {
-        const Real dl =
-            solve_motor_row(j.motor_impulse, r.axial_mass, rows.cdot(0, p), d.motor_speed, r.max_motor_impulse);
+    if (d.enable_motor && pass.drive) {
+        const Real dl = solve_motor_row(acc.motor, r.axial_mass, rows.cdot(0, p), d.motor_speed, r.max_motor_impulse);
         apply_linear_row(p, r, rows.n[0], rows.sa[0], rows.sb[0], dl);
     }
     if (d.enable_limit) {
         const Real translation = pose.d.dot(rows.n[0]);
         {  // lower: C = translation - lower >= 0
-            const Real dl = solve_limit_row(j.lower_impulse, r.axial_mass, rows.cdot(0, p), translation - d.lower,
-                                            r.soft, r.inv_h, use_bias);
+            const Real dl = solve_limit_row(acc.lower, r.axial_mass, rows.cdot(0, p), translation - d.lower, s, r.inv_h);
             apply_linear_row(p, r, rows.n[0], rows.sa[0], rows.sb[0], dl);
         }
         {  // upper: C = upper - translation >= 0, J negated
-            const Real dl = solve_limit_row(j.upper_impulse, r.axial_mass, -rows.cdot(0, p), d.upper - translation,
-                                            r.soft, r.inv_h, use_bias);
+            const Real dl = solve_limit_row(acc.upper, r.axial_mass, -rows.cdot(0, p), d.upper - translation, s, r.inv_h);
             apply_linear_row(p, r, rows.n[0], rows.sa[0], rows.sb[0], -dl);
         }
     }
-    solve_angular_block(p, j.angular_impulse, r, orientation_error(pose.qa, pose.qb, j.rel0), s);
+    solve_angular_block(p, acc.angular, r, orientation_error(pose.qa, pose.qb, j.rel0), s);
     {  // perpendicular rows, 2x2 block: C_i = d.n_i
-        const Real rhs0 = rows.cdot(1, p) + s.bias_rate * pose.d.dot(rows.n[1]);
-        const Real rhs1 = rows.cdot(2, p) + s.bias_rate * pose.d.dot(rows.n[2]);
+        const Real rhs0 = rows.cdot(1, p) + s.bias_rate * s.cap(pose.d.dot(rows.n[1]));
+        const Real rhs1 = rows.cdot(2, p) + s.bias_rate * s.cap(pose.d.dot(rows.n[2]));
         Real m0, m1;
         r.pair_mass.mul(rhs0, rhs1, m0, m1);
-        const Real l0 = -s.mass_scale * m0 - s.impulse_scale * j.pair_impulse[0];
-        const Real l1 = -s.mass_scale * m1 - s.impulse_scale * j.pair_impulse[1];
-        j.pair_impulse[0] += l0;
-        j.pair_impulse[1] += l1;
+        const Real l0 = -s.mass_scale * m0 - s.impulse_scale * acc.pair[0];
+        const Real l1 = -s.mass_scale * m1 - s.impulse_scale * acc.pair[1];
+        acc.pair[0] += l0;
+        acc.pair[1] += l1;
         apply_linear_row(p, r, rows.n[1], rows.sa[1], rows.sb[1], l0);
         apply_linear_row(p, r, rows.n[2], rows.sa[2], rows.sb[2], l1);
     }
-    p.store(st, r);
+    p.store(pass, r);
 }
 
 }  // namespace sinew::joint_detail

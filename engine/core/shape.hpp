@@ -114,7 +114,14 @@ void TriangleMeshData::query(const Aabb& box, F&& f) const {
         const Node& n = nodes[stack[--top]];
         if (!n.box.overlaps(box)) continue;
         if (n.left < 0) {
-            for (int i = 0; i < n.count; ++i) f(tri_order[n.first + i]);
+            // A leaf holds up to 4 triangles: test each one's own box before the caller's (costly)
+            // narrow phase.
+            for (int i = 0; i < n.count; ++i) {
+                const std::uint32_t t = tri_order[n.first + i];
+                const Vec3 &a = vertices[indices[3 * t]], &b = vertices[indices[3 * t + 1]], &c = vertices[indices[3 * t + 2]];
+                const Aabb tb{a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c)};
+                if (tb.overlaps(box)) f(t);
+            }
         } else {
             stack[top++] = n.left;
             stack[top++] = n.right;
