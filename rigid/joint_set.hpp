@@ -26,7 +26,7 @@ struct JointSoftness {
     /// true: Catto 2011 soft constraint of `hertz` and `damping_ratio` in the biased passes.
     bool soft = false;
     Real baumgarte = Real(0.2);
-    Real hertz = 60;          ///< soft: stiffness (Hz)
+    Real hertz = 60;          ///< soft: stiffness (Hz), capped at half the (sub-)step rate
     Real damping_ratio = 2;   ///< soft
 };
 
@@ -80,9 +80,7 @@ public:
     void finish(Real h, std::vector<JointId>& broken);
 
 private:
-    /// Position projection sweeps per step when prepare() chose projection (see joint_set.cpp).
-    static constexpr int kProjectionSweeps = 2;
-    void project_positions();
+    void project_positions();  ///< finish()'s position projection (see joint_set.cpp)
     struct Impl;  // joints and their prepared rows, defined in joint_set.cpp
     std::unique_ptr<Impl> impl_;
 };

@@ -458,13 +458,16 @@ void RigidSystem::detect_collisions(Real h) {
             const Real closing = h * (state_.v[a].norm() + state_.v[b].norm());
             collide(shape_[a], xa, shape_[b], xb, margin + closing, scratch_);
             if (scratch_.empty()) continue;
+            const std::size_t first = contacts_.size();
             add_fresh_manifolds(a, b, xa, xb, relative, prev_i, prev_end);
+            // Pairs come in key order; collide() may return a pair's sub_keys unordered, so only this
+            // pair's few manifolds need sorting to keep the list ordered for the next merge join.
+            if (contacts_.size() - first > 1)
+                std::sort(contacts_.begin() + std::ptrdiff_t(first), contacts_.end(), manifold_less);
         }
         // A sleeping body touched by an awake one wakes with its whole island.
         if (asleep_a != asleep_b) wake_island(asleep_a ? a : b);
     }
-    // collide() may return sub_keys unordered within a pair; keep the list sorted for the next merge.
-    std::sort(contacts_.begin(), contacts_.end(), manifold_less);
 }
 
 Transform RigidSystem::detection_transform(std::uint32_t s, Real h) const {
