@@ -24,6 +24,21 @@ public:
     virtual bool integrates_itself() const { return false; }
 };
 
+/// Writes each prepared constraint's accumulated impulses back into its manifold's points, where the
+/// contact cache carries them to the next step (warm starting) and events and coupling read them.
+/// `Constraint` has `manifold`, `count` and `p[k].{normal_impulse, tangent_impulse[2]}`.
+template <class Constraint>
+void store_contact_impulses(const std::vector<Constraint>& constraints, std::vector<ContactManifold>& contacts) {
+    for (const Constraint& c : constraints) {
+        Manifold& m = contacts[c.manifold].manifold;
+        for (int k = 0; k < c.count; ++k) {
+            m.points[k].normal_impulse = c.p[k].normal_impulse;
+            m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0];
+            m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1];
+        }
+    }
+}
+
 std::unique_ptr<RigidSolver> make_sequential_impulse_solver();
 std::unique_ptr<RigidSolver> make_newton_impulse_solver();
 std::unique_ptr<RigidSolver> make_soft_step_solver();

@@ -225,15 +225,7 @@ void SequentialImpulseSolver::store_impulses(RigidSystem& sys) {
         st.v[i] = bodies_[i].v;
         st.w[i] = bodies_[i].w;
     }
-    auto& contacts = sys.mutable_contacts();
-    for (const ContactConstraint& c : constraints_) {
-        Manifold& m = contacts[c.manifold].manifold;
-        for (int k = 0; k < c.count; ++k) {
-            m.points[k].normal_impulse = c.p[k].normal_impulse;
-            m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0];
-            m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1];
-        }
-    }
+    store_contact_impulses(constraints_, sys.mutable_contacts());
 }
 
 void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {

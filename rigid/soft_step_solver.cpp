@@ -76,7 +76,6 @@ private:
     void warm_start();
     void solve(Real inv_h_sub, Real push_velocity, bool use_bias);
     void restitution(Real threshold);
-    void store(RigidSystem& sys);
 
     std::vector<SoftContact> contacts_;
     std::vector<SoftBody> bodies_;
@@ -263,18 +262,6 @@ void SoftStepSolver::restitution(Real threshold) {
     }
 }
 
-void SoftStepSolver::store(RigidSystem& sys) {
-    auto& out = sys.mutable_contacts();
-    for (const SoftContact& c : contacts_) {
-        Manifold& m = out[c.manifold].manifold;
-        for (int k = 0; k < c.count; ++k) {
-            m.points[k].normal_impulse = c.p[k].normal_impulse;
-            m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0];
-            m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1];
-        }
-    }
-}
-
 void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     const RigidSettings& set = sys.settings();
     const int n_sub = set.effective_substeps();
@@ -379,7 +366,7 @@ void SoftStepSolver::correct_positions(RigidSystem& sys, Real) {
         st.v[s] = v3(bodies_[s].v);
         st.w[s] = v3(bodies_[s].w);
     }
-    store(sys);
+    store_contact_impulses(contacts_, sys.mutable_contacts());
 }
 
 }  // namespace

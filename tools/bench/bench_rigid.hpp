@@ -39,6 +39,8 @@ private:
 };
 
 double median(std::vector<double> v);
+/// Fills the summary fields of a run (median time, drift, drop, stood, collapsed) from its samples.
+void finish_run(RigidRun& run, const std::vector<double>& ms, const DriftMeter& meter);
 std::string to_json_line(const RigidRun& r);
 
 /// Bullet 3.24 (Debian's libbullet), configured as issue 3 prescribes: btDiscreteDynamicsWorld with the

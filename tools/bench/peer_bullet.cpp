@@ -144,11 +144,7 @@ RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations) {
         ++run.steps;
         if (!run.finite) break;
     }
-    run.ms_per_step_median = median(ms);
-    run.max_drift = meter.max_drift();
-    run.max_drop = meter.max_drop();
-    run.stood = run.finite && run.max_drift < 0.05;
-    run.collapsed = !run.finite || run.max_drop > 0.5;
+    finish_run(run, ms, meter);
     return run;
 }
 
