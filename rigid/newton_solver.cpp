@@ -60,6 +60,7 @@ private:
     std::vector<int> level_;             // per body slot: contact-graph distance from the ground
     std::vector<std::uint32_t> order_;   // contact indices by level, for shock propagation
     std::vector<std::uint32_t> queue_;
+    std::vector<std::uint32_t> adj_start_, adj_fill_, adj_;  // contact graph, compressed rows
 };
 
 void NewtonImpulseSolver::gather(RigidSystem& sys, Real h) {
@@ -176,21 +177,31 @@ void NewtonImpulseSolver::compute_levels(const RigidSystem& sys) {
             level_[s] = 0;  // static, kinematic and sleeping bodies are the ground
             queue_.push_back(s);
         }
-    // Breadth-first over the contact graph: level = contacts between the body and the ground.
-    // Adjacency is scanned from the contact list; stacks have few contacts per body.
-    std::vector<std::vector<std::uint32_t>> adj(n);
-    for (const NContact& c : contacts_) {
-        if (c.count == 0) continue;
-        adj[c.a].push_back(c.b);
-        adj[c.b].push_back(c.a);
-    }
+    // Breadth-first over the contact graph: level = contacts between the body and the ground. The
+    // adjacency is a compressed row list in member arrays, rebuilt each step without allocating.
+    adj_start_.assign(n + 1, 0);
+    for (const NContact& c : contacts_)
+        if (c.count > 0) {
+            ++adj_start_[c.a + 1];
+            ++adj_start_[c.b + 1];
+        }
+    for (std::size_t i = 0; i < n; ++i) adj_start_[i + 1] += adj_start_[i];
+    adj_.resize(adj_start_[n]);
+    adj_fill_.assign(adj_start_.begin(), adj_start_.end() - 1);
+    for (const NContact& c : contacts_)
+        if (c.count > 0) {
+            adj_[adj_fill_[c.a]++] = c.b;
+            adj_[adj_fill_[c.b]++] = c.a;
+        }
     for (std::size_t head = 0; head < queue_.size(); ++head) {
         std::uint32_t s = queue_[head];
-        for (std::uint32_t o : adj[s])
+        for (std::uint32_t k = adj_start_[s]; k < adj_start_[s + 1]; ++k) {
+            std::uint32_t o = adj_[k];
             if (level_[o] == kUnreached) {
                 level_[o] = level_[s] + 1;
                 queue_.push_back(o);
             }
+        }
     }
     order_.resize(contacts_.size());
     for (std::uint32_t i = 0; i < order_.size(); ++i) order_[i] = i;
