@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <string>
 
 #include "rigid/joint_rows.hpp"
 #include "rigid/rigid_system.hpp"
+#include "engine/core/format.hpp"
 
 namespace sinew {
 
@@ -95,26 +95,14 @@ constexpr int kProjectionSweeps = 2;
 // predicted sag (0.65 mm). Joint rows are few next to contacts, so the second sweep is cheap.
 constexpr int kSoftSweeps = 2;
 
-std::string fmt(Real x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
-
-std::string fmt(const Vec3& v) {
-    std::ostringstream s;
-    s << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
-    return s.str();
-}
-
 [[noreturn]] void bad(const JointDef& d, const std::string& why) {
     throw RigidError(std::string("joint definition (") + joint_type_name(d.type) + "): " + why);
 }
 
 void check_motor(const JointDef& d, Real speed, Real max_force) {
-    if (!is_finite(speed)) bad(d, "motor_speed must be finite, got " + fmt(speed));
+    if (!is_finite(speed)) bad(d, "motor_speed must be finite, got " + to_text(speed));
     if (!is_finite(max_force) || max_force < 0)
-        bad(d, "max_motor_force must be finite and >= 0, got " + fmt(max_force));
+        bad(d, "max_motor_force must be finite and >= 0, got " + to_text(max_force));
 }
 
 /// Every check that does not need the bodies' poses.
@@ -136,25 +124,25 @@ void validate(const JointDef& d, const RigidSystem& sys) {
     if (sys.type(d.body_a) != BodyType::Dynamic && sys.type(d.body_b) != BodyType::Dynamic)
         bad(d, std::string("at least one body must be dynamic (body_a is ") + body_type_name(sys.type(d.body_a)) +
                    ", body_b is " + body_type_name(sys.type(d.body_b)) + ")");
-    if (!is_finite(d.local_anchor_a)) bad(d, "local_anchor_a must be finite, got " + fmt(d.local_anchor_a));
-    if (!is_finite(d.local_anchor_b)) bad(d, "local_anchor_b must be finite, got " + fmt(d.local_anchor_b));
-    if (!is_finite(d.local_axis_a)) bad(d, "local_axis_a must be finite, got " + fmt(d.local_axis_a));
+    if (!is_finite(d.local_anchor_a)) bad(d, "local_anchor_a must be finite, got " + to_text(d.local_anchor_a));
+    if (!is_finite(d.local_anchor_b)) bad(d, "local_anchor_b must be finite, got " + to_text(d.local_anchor_b));
+    if (!is_finite(d.local_axis_a)) bad(d, "local_axis_a must be finite, got " + to_text(d.local_axis_a));
     const bool has_axis = d.type == JointType::Hinge || d.type == JointType::Slider;
     if (has_axis && !(d.local_axis_a.norm() > Real(1e-6)))
-        bad(d, "local_axis_a must be non-zero, got " + fmt(d.local_axis_a));
+        bad(d, "local_axis_a must be non-zero, got " + to_text(d.local_axis_a));
     if (!is_finite(d.lower) || !is_finite(d.upper))
-        bad(d, "limits must be finite, got lower " + fmt(d.lower) + ", upper " + fmt(d.upper));
-    if (d.lower > d.upper) bad(d, "lower limit " + fmt(d.lower) + " is greater than upper limit " + fmt(d.upper));
+        bad(d, "limits must be finite, got lower " + to_text(d.lower) + ", upper " + to_text(d.upper));
+    if (d.lower > d.upper) bad(d, "lower limit " + to_text(d.lower) + " is greater than upper limit " + to_text(d.upper));
     // The hinge angle is measured in (-pi, pi]; a limit outside that range could never be reached.
     if (d.type == JointType::Hinge && d.enable_limit && (d.lower < -kPi || d.upper > kPi))
-        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + fmt(d.lower) + ", " + fmt(d.upper) + "]");
+        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + to_text(d.lower) + ", " + to_text(d.upper) + "]");
     check_motor(d, d.motor_speed, d.max_motor_force);
-    if (!is_finite(d.length)) bad(d, "length must be finite, got " + fmt(d.length));
-    if (!is_finite(d.frequency) || d.frequency < 0) bad(d, "frequency must be finite and >= 0 Hz, got " + fmt(d.frequency));
+    if (!is_finite(d.length)) bad(d, "length must be finite, got " + to_text(d.length));
+    if (!is_finite(d.frequency) || d.frequency < 0) bad(d, "frequency must be finite and >= 0 Hz, got " + to_text(d.frequency));
     if (!is_finite(d.damping_ratio) || d.damping_ratio < 0)
-        bad(d, "damping_ratio must be finite and >= 0, got " + fmt(d.damping_ratio));
+        bad(d, "damping_ratio must be finite and >= 0, got " + to_text(d.damping_ratio));
     if (!is_finite(d.break_force) || d.break_force < 0)
-        bad(d, "break_force must be finite and >= 0 (0 = unbreakable), got " + fmt(d.break_force));
+        bad(d, "break_force must be finite and >= 0 (0 = unbreakable), got " + to_text(d.break_force));
 }
 
 /// Centre of mass in the body's own axes, from the origin transform and the state.
@@ -188,7 +176,7 @@ JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
         const Real length = def.length < 0 ? now : def.length;
         // A zero rest length has no direction to push along; that is a ball joint.
         if (!(length > Real(1e-4)))
-            bad(def, "rest length must be > 1e-4 m, got " + fmt(length) +
+            bad(def, "rest length must be > 1e-4 m, got " + to_text(length) +
                          (def.length < 0 ? " (the anchors' distance at creation)" : "") + "; use a ball joint");
         j.def.length = length;
     }

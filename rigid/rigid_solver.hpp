@@ -2,6 +2,8 @@
 // inner loops run on plain arrays they prepare themselves.
 #pragma once
 
+#include <cmath>
+
 #include "rigid/rigid_system.hpp"
 
 namespace sinew {
@@ -36,6 +38,18 @@ void store_contact_impulses(const std::vector<Constraint>& constraints, std::vec
             m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0];
             m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1];
         }
+    }
+}
+
+/// Clamps a point's two accumulated tangent impulses together to the friction circle |l| <= max_f.
+/// Clamping each row to its own bound would make a square cone, up to sqrt(2) too strong on the
+/// diagonal and wrong on a slope not aligned with the first tangent.
+inline void clamp_to_friction_circle(Real& l0, Real& l1, Real max_f) {
+    const Real len2 = l0 * l0 + l1 * l1;
+    if (len2 > max_f * max_f) {
+        const Real scale = max_f / std::sqrt(len2);
+        l0 *= scale;
+        l1 *= scale;
     }
 }
 

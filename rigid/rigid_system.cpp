@@ -1,20 +1,15 @@
 #include "rigid/rigid_system.hpp"
 
 #include <algorithm>
-#include <sstream>
 
 #include "engine/core/mass_properties.hpp"
 #include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
+#include "engine/core/format.hpp"
 
 namespace sinew {
 
 namespace {
-std::string fmt(Real x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
 std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; }
 bool manifold_less(const ContactManifold& x, const ContactManifold& y) {
     std::uint64_t kx = pair_key(x.body_a, x.body_b), ky = pair_key(y.body_a, y.body_b);
@@ -57,21 +52,21 @@ void RigidSystem::set_settings(const RigidSettings& s) {
     if (!is_finite(s.gravity)) bad("gravity", "must be finite");
     if (s.velocity_iterations < 1 || s.velocity_iterations > 1000)
         bad("velocity_iterations", "must be in [1, 1000], got " + std::to_string(s.velocity_iterations));
-    if (!(s.baumgarte >= 0 && s.baumgarte <= 1)) bad("baumgarte", "must be in [0, 1], got " + fmt(s.baumgarte));
-    if (!(s.linear_slop >= 0 && s.linear_slop < 1)) bad("linear_slop", "must be in [0, 1) m, got " + fmt(s.linear_slop));
+    if (!(s.baumgarte >= 0 && s.baumgarte <= 1)) bad("baumgarte", "must be in [0, 1], got " + to_text(s.baumgarte));
+    if (!(s.linear_slop >= 0 && s.linear_slop < 1)) bad("linear_slop", "must be in [0, 1) m, got " + to_text(s.linear_slop));
     if (!(s.restitution_threshold >= 0) || !is_finite(s.restitution_threshold))
-        bad("restitution_threshold", "must be finite and >= 0, got " + fmt(s.restitution_threshold));
+        bad("restitution_threshold", "must be finite and >= 0, got " + to_text(s.restitution_threshold));
     if (!(s.contact_margin > 0 && s.contact_margin < 1))
-        bad("contact_margin", "must be in (0, 1) m, got " + fmt(s.contact_margin));
+        bad("contact_margin", "must be in (0, 1) m, got " + to_text(s.contact_margin));
     if (!(s.max_correction_velocity > 0) || !is_finite(s.max_correction_velocity))
-        bad("max_correction_velocity", "must be finite and > 0, got " + fmt(s.max_correction_velocity));
+        bad("max_correction_velocity", "must be finite and > 0, got " + to_text(s.max_correction_velocity));
     if (!(s.sleep_linear_velocity >= 0) || !(s.sleep_angular_velocity >= 0) || !(s.sleep_time >= 0) ||
         !is_finite(s.sleep_time))
         bad("sleep thresholds", "must be finite and >= 0");
     if (s.newton_collision_iterations < 0 || s.newton_contact_iterations < 1)
         bad("newton iterations", "must be >= 0 (collision) and >= 1 (contact)");
     if (!(s.newton_projection_fraction >= 0 && s.newton_projection_fraction <= 1))
-        bad("newton projection_fraction", "must be in [0, 1], got " + fmt(s.newton_projection_fraction));
+        bad("newton projection_fraction", "must be in [0, 1], got " + to_text(s.newton_projection_fraction));
     if (s.substeps < 0 || s.substeps > 64)
         bad("substeps", "must be in [0, 64] (0 = velocity_iterations / 2), got " + std::to_string(s.substeps));
     if (!(s.contact_hertz > 0) || !is_finite(s.contact_hertz)) bad("contact_hertz", "must be finite and > 0");
@@ -105,10 +100,10 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     if (!is_finite(def.pose.p)) bad("position must be finite");
     if (!is_finite(def.pose.q) || def.pose.q.norm() < Real(1e-6)) bad("rotation must be a finite non-zero quaternion");
     if (!is_finite(def.linear_velocity) || !is_finite(def.angular_velocity)) bad("velocities must be finite");
-    if (!is_finite(def.mass) || def.mass < 0) bad("mass must be finite and >= 0 (0 = from density), got " + fmt(def.mass));
+    if (!is_finite(def.mass) || def.mass < 0) bad("mass must be finite and >= 0 (0 = from density), got " + to_text(def.mass));
     const Material& m = def.material;
-    if (!is_finite(m.friction) || m.friction < 0) bad("friction must be finite and >= 0, got " + fmt(m.friction));
-    if (!(m.restitution >= 0 && m.restitution <= 1)) bad("restitution must be in [0, 1], got " + fmt(m.restitution));
+    if (!is_finite(m.friction) || m.friction < 0) bad("friction must be finite and >= 0, got " + to_text(m.friction));
+    if (!(m.restitution >= 0 && m.restitution <= 1)) bad("restitution must be in [0, 1], got " + to_text(m.restitution));
     if (!is_finite(def.linear_damping) || def.linear_damping < 0 || !is_finite(def.angular_damping) ||
         def.angular_damping < 0)
         bad("damping must be finite and >= 0");
@@ -125,7 +120,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         } catch (const ShapeError& e) {
             bad(e.what());
         }
-        if (!(mp.mass > 0) || !is_finite(mp.mass)) bad("mass must be > 0, got " + fmt(mp.mass));
+        if (!(mp.mass > 0) || !is_finite(mp.mass)) bad("mass must be > 0, got " + to_text(mp.mass));
     }
     Aabb box = def.shape.bounds(pose);
     if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");

@@ -167,19 +167,13 @@ void SequentialImpulseSolver::solve_iteration(bool split) {
         for (int k = 0; k < c.count; ++k) {
             PointConstraint& p = c.p[k];
             const Real max_f = c.friction * p.normal_impulse;
-            // Both tangent rows from the same velocities, clamped together to the friction circle
-            // (a per-row clamp would be a square cone, sqrt(2) too strong on the diagonal).
+            // Both tangent rows from the same velocities, then clamped together to the friction circle.
             const Vec3 dv = B.v - A.v;
             Real vt0 = c.t[0].dot(dv) + p.rb_t[0].dot(B.w) - p.ra_t[0].dot(A.w);
             Real vt1 = c.t[1].dot(dv) + p.rb_t[1].dot(B.w) - p.ra_t[1].dot(A.w);
             Real l0 = p.tangent_impulse[0] - p.tangent_mass[0] * vt0;
             Real l1 = p.tangent_impulse[1] - p.tangent_mass[1] * vt1;
-            Real len2 = l0 * l0 + l1 * l1;
-            if (len2 > max_f * max_f) {
-                Real scale = max_f / std::sqrt(len2);
-                l0 *= scale;
-                l1 *= scale;
-            }
+            clamp_to_friction_circle(l0, l1, max_f);
             Real d0 = l0 - p.tangent_impulse[0], d1 = l1 - p.tangent_impulse[1];
             p.tangent_impulse[0] = l0;
             p.tangent_impulse[1] = l1;

@@ -210,20 +210,13 @@ void SoftStepSolver::solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
         for (int k = 0; k < c.count; ++k) {
             SoftPoint& p = c.p[k];
             const Real max_f = c.friction * p.normal_impulse;
-            // Both tangent rows from the same velocities, then the pair is clamped to the friction
-            // circle |lambda_t| <= mu lambda_n: clamping each row to its own bound would be a square
-            // cone, up to sqrt(2) too strong on the diagonal, and wrong on a slope not aligned with t1.
+            // Both tangent rows from the same velocities, then clamped together to the friction circle.
             const V4 dv = vb - va;
             Real vt0 = (c.t[0].cwiseProduct(dv) + p.rb_t[0].cwiseProduct(ob) - p.ra_t[0].cwiseProduct(oa)).sum();
             Real vt1 = (c.t[1].cwiseProduct(dv) + p.rb_t[1].cwiseProduct(ob) - p.ra_t[1].cwiseProduct(oa)).sum();
             Real l0 = p.tangent_impulse[0] - p.tangent_mass[0] * vt0;
             Real l1 = p.tangent_impulse[1] - p.tangent_mass[1] * vt1;
-            Real len2 = l0 * l0 + l1 * l1;
-            if (len2 > max_f * max_f) {
-                Real scale = max_f / std::sqrt(len2);
-                l0 *= scale;
-                l1 *= scale;
-            }
+            clamp_to_friction_circle(l0, l1, max_f);
             Real d0 = l0 - p.tangent_impulse[0], d1 = l1 - p.tangent_impulse[1];
             p.tangent_impulse[0] = l0;
             p.tangent_impulse[1] = l1;

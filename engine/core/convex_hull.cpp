@@ -18,10 +18,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <unordered_map>
 
 #include "engine/core/shape.hpp"
+#include "engine/core/format.hpp"
 
 namespace sinew {
 
@@ -54,12 +54,6 @@ struct HullTri {
     bool alive = true;
     int mark = 0;  // per-iteration visit mark
 };
-
-std::string fmt(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
 
 class QuickHull {
 public:
@@ -134,7 +128,7 @@ void QuickHull::initial_simplex(int& i0, int& i1, int& i2, int& i3) const {
     }
     if (best <= tol_)
         throw ShapeError("convex hull is degenerate: all points lie on a line (largest distance from the line " +
-                         fmt(best) + ")");
+                         to_text(best) + ")");
 
     V3 nrm = (p_[i1] - p_[i0]).cross(p_[i2] - p_[i0]).normalized();
     best = -1;
@@ -147,7 +141,7 @@ void QuickHull::initial_simplex(int& i0, int& i1, int& i2, int& i3) const {
     }
     if (best <= tol_)
         throw ShapeError("convex hull is degenerate: all points lie on a plane (flat cloud; largest distance "
-                         "from the plane " + fmt(best) + ")");
+                         "from the plane " + to_text(best) + ")");
 }
 
 void QuickHull::build() {
@@ -521,8 +515,8 @@ Shape make_convex_hull(const std::vector<Vec3>& points) {
     Eigen::AlignedBox<double, 3> box;
     for (std::size_t i = 0; i < points.size(); ++i) {
         if (!is_finite(points[i]))
-            throw ShapeError("convex hull point " + std::to_string(i) + " is not finite (" + fmt(points[i].x()) +
-                             ", " + fmt(points[i].y()) + ", " + fmt(points[i].z()) + ")");
+            throw ShapeError("convex hull point " + std::to_string(i) + " is not finite (" + to_text(points[i].x()) +
+                             ", " + to_text(points[i].y()) + ", " + to_text(points[i].z()) + ")");
         pts.push_back(points[i].cast<double>());
         box.extend(pts.back());
     }
@@ -536,7 +530,7 @@ Shape make_convex_hull(const std::vector<Vec3>& points) {
     for (int attempt = 0;; ++attempt, tol *= kToleranceGrowth) {
         if (attempt == kAttempts)
             throw ShapeError("convex hull construction failed: the points are numerically degenerate (nearly "
-                             "coplanar or collinear beyond what a tolerance of " + fmt(tol / kToleranceGrowth) +
+                             "coplanar or collinear beyond what a tolerance of " + to_text(tol / kToleranceGrowth) +
                              " resolves)");
         QuickHull qh(pts, tol);
         try {

@@ -2,10 +2,10 @@
 // the end: the hull sum cancels large signed tetrahedron terms and the compound sum subtracts
 // m c cᵀ from second moments, both of which lose most of float's 24 bits on off-centre shapes.
 #include "engine/core/mass_properties.hpp"
+#include "engine/core/format.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -25,14 +25,8 @@ struct UnitMass {
     Mat3d inertia = Mat3d::Zero();  ///< about `center`, per unit density
 };
 
-std::string str(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
-
 void require_dimension(Real x, const char* what) {
-    if (!is_finite(x) || x <= 0) throw ShapeError(std::string(what) + " must be finite and > 0, got " + str(x));
+    if (!is_finite(x) || x <= 0) throw ShapeError(std::string(what) + " must be finite and > 0, got " + to_text(x));
 }
 
 UnitMass sphere_mass(Real radius_r) {
@@ -70,7 +64,7 @@ UnitMass box_mass(const Vec3& he) {
 UnitMass capsule_mass(Real half_height, Real radius_r) {
     require_dimension(radius_r, "capsule radius");
     if (!is_finite(half_height) || half_height < 0)
-        throw ShapeError("capsule half height must be finite and >= 0, got " + str(half_height));
+        throw ShapeError("capsule half height must be finite and >= 0, got " + to_text(half_height));
     const double r = radius_r, h = half_height;
     const double r2 = r * r;
     const double mc = kPiD * r2 * 2.0 * h;
@@ -134,7 +128,7 @@ UnitMass hull_mass(const ConvexHullData* hull) {
     double extent = 0;
     for (const Vec3& v : hull->vertices) extent = std::max(extent, (v.cast<double>() - p0).norm());
     if (!(six_volume > 1e-12 * std::pow(extent, 3)))
-        throw ShapeError("convex hull is degenerate (volume " + str(six_volume / 6.0) + ")");
+        throw ShapeError("convex hull is degenerate (volume " + to_text(six_volume / 6.0) + ")");
 
     UnitMass u;
     u.volume = six_volume / 6.0;
@@ -199,8 +193,8 @@ MassProperties scaled(const UnitMass& u, double density) {
     MassProperties mp;
     mp.mass = static_cast<Real>(u.volume * density);
     if (!is_finite(mp.mass) || mp.mass <= 0)
-        throw ShapeError("mass " + str(u.volume * density) + " (volume " + str(u.volume) + " x density " +
-                         str(density) + ") is not representable");
+        throw ShapeError("mass " + to_text(u.volume * density) + " (volume " + to_text(u.volume) + " x density " +
+                         to_text(density) + ") is not representable");
     mp.center = u.center.cast<Real>();
     // Exactly symmetric after rotations. (Into a new matrix: `i = i + i.transpose()` would alias.)
     const Mat3d sym = (0.5 * density) * (u.inertia + u.inertia.transpose());
@@ -213,12 +207,12 @@ MassProperties scaled(const UnitMass& u, double density) {
 
 MassProperties compute_mass_properties(const Shape& shape, Real density) {
     if (!is_finite(density) || density <= 0)
-        throw ShapeError("density must be finite and > 0, got " + str(density));
+        throw ShapeError("density must be finite and > 0, got " + to_text(density));
     return scaled(shape_mass(shape), density);
 }
 
 MassProperties mass_properties_for_mass(const Shape& shape, Real mass) {
-    if (!is_finite(mass) || mass <= 0) throw ShapeError("mass must be finite and > 0, got " + str(mass));
+    if (!is_finite(mass) || mass <= 0) throw ShapeError("mass must be finite and > 0, got " + to_text(mass));
     const UnitMass u = shape_mass(shape);
     return scaled(u, static_cast<double>(mass) / u.volume);
 }

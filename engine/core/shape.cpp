@@ -1,17 +1,12 @@
 #include "engine/core/shape.hpp"
 
-#include <sstream>
+#include "engine/core/format.hpp"
 
 namespace sinew {
 
 namespace {
-std::string str(Real x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
 void require_positive(Real x, const char* what) {
-    if (!is_finite(x) || x <= 0) throw ShapeError(std::string(what) + " must be finite and > 0, got " + str(x));
+    if (!is_finite(x) || x <= 0) throw ShapeError(std::string(what) + " must be finite and > 0, got " + to_text(x));
 }
 }  // namespace
 
@@ -128,7 +123,7 @@ Shape make_box(const Vec3& half_extents) {
 Shape make_capsule(Real half_height, Real radius) {
     require_positive(radius, "capsule radius");
     if (!is_finite(half_height) || half_height < 0)
-        throw ShapeError("capsule half height must be finite and >= 0, got " + str(half_height));
+        throw ShapeError("capsule half height must be finite and >= 0, got " + to_text(half_height));
     Shape s;
     s.type = ShapeType::Capsule;
     s.half_height = half_height;

@@ -6,21 +6,15 @@
 // Collision Detection, 6.2). Splitting at the median index halves the count every level, so the depth is
 // ceil(log2(n / 4)) + 1 whatever the geometry: far below the 64-slot traversal stack of query().
 #include <algorithm>
-#include <sstream>
 
 #include "engine/core/shape.hpp"
+#include "engine/core/format.hpp"
 
 namespace sinew {
 
 namespace {
 
 constexpr int kLeafSize = 4;
-
-std::string fmt(Real x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-}
 
 /// Twice the triangle's area is below rounding noise relative to its longest edge: the triangle has no
 /// normal and no interior, so it can only produce garbage contacts.
@@ -81,8 +75,8 @@ Shape make_triangle_mesh(const std::vector<Vec3>& vertices, const std::vector<st
         throw ShapeError("triangle mesh index count must be a multiple of 3, got " + std::to_string(indices.size()));
     for (std::size_t i = 0; i < vertices.size(); ++i)
         if (!is_finite(vertices[i]))
-            throw ShapeError("triangle mesh vertex " + std::to_string(i) + " is not finite (" + fmt(vertices[i].x()) +
-                             ", " + fmt(vertices[i].y()) + ", " + fmt(vertices[i].z()) + ")");
+            throw ShapeError("triangle mesh vertex " + std::to_string(i) + " is not finite (" + to_text(vertices[i].x()) +
+                             ", " + to_text(vertices[i].y()) + ", " + to_text(vertices[i].z()) + ")");
     for (std::size_t i = 0; i < indices.size(); ++i)
         if (indices[i] >= vertices.size())
             throw ShapeError("triangle mesh index " + std::to_string(i) + " is " + std::to_string(indices[i]) +
