@@ -1,0 +1,200 @@
+// C API: rigid bodies.
+#include <cmath>
+
+#include "engine/api/capi_internal.hpp"
+#include "engine/core/format.hpp"
+
+using namespace sinew;
+using namespace sinew::capi;
+
+namespace {
+
+sinew_status invalid(const char* fn, const std::string& what) {
+    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
+}
+
+/// Checks and converts a shape definition; the factories check the dimensions.
+Shape make_shape(const sinew_shape_def& d) {
+    switch (d.type) {
+        case SINEW_SHAPE_SPHERE: return make_sphere(Real(d.radius));
+        case SINEW_SHAPE_BOX: return make_box(to_vec(d.half_extents));
+        case SINEW_SHAPE_CAPSULE: return make_capsule(Real(d.half_height), Real(d.radius));
+    }
+    throw ShapeError("def->shape.type = " + std::to_string(int(d.type)) + " is not a sinew_shape_type");
+}
+
+bool unit_quat_ok(const sinew_quat& q) {
+    const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+    return std::isfinite(n2) && n2 > 1e-12f;
+}
+
+/// The body and its world, or the failure already recorded; also rejects calls during a step.
+struct Target {
+    World* world = nullptr;
+    BodyId body;
+    sinew_status status = SINEW_OK;
+};
+Target target(sinew_body_id id, const char* fn, bool mutates) {
+    Target t;
+    t.body = find_body(id, fn, &t.world);
+    if (t.body.is_null()) {
+        t.status = SINEW_ERROR_STALE_ID;
+    } else if (mutates && t.world->in_step()) {
+        t.status = fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
+    }
+    return t;
+}
+
+}  // namespace
+
+extern "C" {
+
+sinew_body_def sinew_body_def_default(void) {
+    sinew_body_def d;
+    d.type = SINEW_BODY_DYNAMIC;
+    d.transform = {{0, 0, 0}, {0, 0, 0, 1}};
+    d.linear_velocity = {0, 0, 0};
+    d.angular_velocity = {0, 0, 0};
+    d.shape.type = SINEW_SHAPE_BOX;
+    d.shape.radius = 0.5f;
+    d.shape.half_height = 0.5f;
+    d.shape.half_extents = {0.5f, 0.5f, 0.5f};
+    const Material m;
+    d.mass = 0;
+    d.density = float(m.density);
+    d.friction = float(m.friction);
+    d.restitution = float(m.restitution);
+    d.linear_damping = 0;
+    d.angular_damping = 0;
+    d.user_data = 0;
+    return d;
+}
+
+sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, sinew_body_id* out) {
+    const char* fn = "sinew_body_create";
+    return guarded(fn, [&] {
+        if (!def) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": def is NULL");
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (w->in_step()) return fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
+        if (def->type < SINEW_BODY_STATIC || def->type > SINEW_BODY_DYNAMIC)
+            return invalid(fn, "def->type = " + std::to_string(int(def->type)) + " is not a sinew_body_type");
+        if (!finite(def->transform.p)) return invalid(fn, "def->transform.p must be finite");
+        if (!unit_quat_ok(def->transform.q)) return invalid(fn, "def->transform.q must be a finite non-zero quaternion");
+        if (!std::isfinite(def->mass) || def->mass < 0)
+            return invalid(fn, "def->mass = " + to_text(def->mass) + " must be finite and >= 0 (0 = from density)");
+        if (def->mass == 0 && def->type == SINEW_BODY_DYNAMIC && !(def->density > 0 && std::isfinite(def->density)))
+            return invalid(fn, "def->density = " + to_text(def->density) + " must be finite and > 0 when mass is 0");
+        BodyDef b;
+        b.type = def->type == SINEW_BODY_STATIC ? BodyType::Static
+                 : def->type == SINEW_BODY_KINEMATIC ? BodyType::Kinematic
+                                                      : BodyType::Dynamic;
+        b.pose = {to_vec(def->transform.p), to_quat(def->transform.q).normalized()};
+        b.linear_velocity = to_vec(def->linear_velocity);
+        b.angular_velocity = to_vec(def->angular_velocity);
+        b.shape = make_shape(def->shape);  // ShapeError names the bad dimension
+        b.mass = Real(def->mass);
+        b.material.density = Real(def->density);
+        b.material.friction = Real(def->friction);
+        b.material.restitution = Real(def->restitution);
+        b.linear_damping = Real(def->linear_damping);
+        b.angular_damping = Real(def->angular_damping);
+        b.user_data = def->user_data;
+        BodyId id = w->rigid().create_body(b);  // RigidError names the rest; nothing is created then
+        *out = {pack_world(world), id.index, id.generation};
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_destroy(sinew_body_id body) {
+    const char* fn = "sinew_body_destroy";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().destroy_body(t.body);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_get_transform(sinew_body_id body, sinew_transform* out) {
+    const char* fn = "sinew_body_get_transform";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = to_c(t.world->rigid().transform(t.body));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_transform(sinew_body_id body, const sinew_transform* xf) {
+    const char* fn = "sinew_body_set_transform";
+    return guarded(fn, [&] {
+        if (!xf) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": transform is NULL");
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (!finite(xf->p)) return invalid(fn, "transform->p must be finite");
+        if (!unit_quat_ok(xf->q)) return invalid(fn, "transform->q must be a finite non-zero quaternion");
+        t.world->rigid().set_transform(t.body, {to_vec(xf->p), to_quat(xf->q).normalized()});
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_get_velocity(sinew_body_id body, sinew_vec3* linear, sinew_vec3* angular) {
+    const char* fn = "sinew_body_get_velocity";
+    return guarded(fn, [&] {
+        if (!linear && !angular) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": linear and angular are NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        if (linear) *linear = to_c(t.world->rigid().linear_velocity(t.body));
+        if (angular) *angular = to_c(t.world->rigid().angular_velocity(t.body));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sinew_vec3 angular) {
+    const char* fn = "sinew_body_set_velocity";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (!finite(linear) || !finite(angular)) return invalid(fn, "velocities must be finite");
+        t.world->rigid().set_velocity(t.body, to_vec(linear), to_vec(angular));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 point) {
+    const char* fn = "sinew_body_apply_force";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (!finite(force) || !finite(point)) return invalid(fn, "force and world_point must be finite");
+        t.world->rigid().apply_force(t.body, to_vec(force), to_vec(point));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 point) {
+    const char* fn = "sinew_body_apply_impulse";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (!finite(impulse) || !finite(point)) return invalid(fn, "impulse and world_point must be finite");
+        t.world->rigid().apply_impulse(t.body, to_vec(impulse), to_vec(point));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out) {
+    const char* fn = "sinew_body_user_data";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = t.world->rigid().user_data(t.body);
+        return SINEW_OK;
+    });
+}
+
+}  // extern "C"

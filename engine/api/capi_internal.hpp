@@ -1,0 +1,54 @@
+// Internals shared by the C API's translation units: the world registry, handle checks, the per-thread
+// last error, and the guard that turns C++ exceptions into status codes so none crosses the C boundary.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "engine/api/sinew.h"
+#include "engine/world/world.hpp"
+
+namespace sinew::capi {
+
+/// Fails a call: records the message for sinew_last_error() and returns the status.
+sinew_status fail(sinew_status status, std::string message);
+void clear_error();
+
+/// The live world for a handle, or nullptr after recording SINEW_ERROR_STALE_ID naming `fn`.
+World* find_world(sinew_world_id id, const char* fn);
+/// The body id inside its world, or a null id after recording the error.
+BodyId find_body(sinew_body_id id, const char* fn, World** world);
+/// Body handles carry their world as (generation << 16) | index.
+std::uint32_t pack_world(sinew_world_id id);
+sinew_world_id world_of(sinew_body_id id);
+
+sinew_world_id register_world(std::unique_ptr<World> world);
+void unregister_world(sinew_world_id id);
+
+inline Vec3 to_vec(const sinew_vec3& v) { return Vec3(Real(v.x), Real(v.y), Real(v.z)); }
+inline sinew_vec3 to_c(const Vec3& v) { return {float(v.x()), float(v.y()), float(v.z())}; }
+inline Quat to_quat(const sinew_quat& q) { return Quat(Real(q.w), Real(q.x), Real(q.y), Real(q.z)); }
+inline sinew_transform to_c(const Transform& t) {
+    return {to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
+}
+bool finite(const sinew_vec3& v);
+
+/// Runs f() (returning sinew_status) and maps every exception to a status and message naming `fn`.
+template <class F>
+sinew_status guarded(const char* fn, F&& f) noexcept {
+    try {
+        clear_error();
+        return f();
+    } catch (const std::bad_alloc&) {
+        return fail(SINEW_ERROR_INTERNAL, std::string(fn) + ": out of memory");
+    } catch (const std::invalid_argument& e) {  // RigidError, ShapeError: bad user data
+        return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + e.what());
+    } catch (const std::exception& e) {
+        return fail(SINEW_ERROR_INTERNAL, std::string(fn) + ": " + e.what());
+    } catch (...) {
+        return fail(SINEW_ERROR_INTERNAL, std::string(fn) + ": unknown error");
+    }
+}
+
+}  // namespace sinew::capi

@@ -1,0 +1,135 @@
+// C API: worlds and stepping.
+#include <cmath>
+
+#include "engine/api/capi_internal.hpp"
+#include "engine/core/format.hpp"
+
+using namespace sinew;
+using namespace sinew::capi;
+
+namespace {
+
+sinew_status check_not_stepping(const World* w, const char* fn) {
+    if (w->in_step()) return fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
+    return SINEW_OK;
+}
+
+}  // namespace
+
+extern "C" {
+
+sinew_world_def sinew_world_def_default(void) {
+    const WorldSettings ws;
+    sinew_world_def d;
+    d.gravity = to_c(ws.rigid.gravity);
+    d.time_step = float(ws.time_step);
+    d.max_steps_per_frame = ws.max_steps_per_frame;
+    d.solver = SINEW_SOLVER_SOFT_STEP;
+    d.velocity_iterations = ws.rigid.velocity_iterations;
+    d.enable_sleep = ws.rigid.sleeping ? 1 : 0;
+    return d;
+}
+
+sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out) {
+    return guarded("sinew_world_create", [&] {
+        const char* fn = "sinew_world_create";
+        if (!def) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": def is NULL");
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        if (!finite(def->gravity))
+            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->gravity must be finite");
+        if (!(def->time_step > 0 && def->time_step <= 1))
+            return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                        std::string(fn) + ": def->time_step = " + to_text(def->time_step) + " must be in (0, 1] s");
+        if (def->solver < SINEW_SOLVER_SOFT_STEP || def->solver > SINEW_SOLVER_NEWTON)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                        std::string(fn) + ": def->solver = " + std::to_string(int(def->solver)) + " is not a sinew_solver");
+        if (def->enable_sleep != 0 && def->enable_sleep != 1)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->enable_sleep must be 0 or 1");
+        WorldSettings ws;
+        ws.time_step = Real(def->time_step);
+        ws.max_steps_per_frame = def->max_steps_per_frame;
+        ws.rigid.gravity = to_vec(def->gravity);
+        ws.rigid.velocity_iterations = def->velocity_iterations;
+        ws.rigid.sleeping = def->enable_sleep == 1;
+        switch (def->solver) {
+            case SINEW_SOLVER_SOFT_STEP: ws.rigid.correction = PositionCorrection::SoftStep; break;
+            case SINEW_SOLVER_SPLIT_IMPULSE: ws.rigid.correction = PositionCorrection::SplitImpulse; break;
+            case SINEW_SOLVER_BAUMGARTE: ws.rigid.correction = PositionCorrection::Baumgarte; break;
+            case SINEW_SOLVER_NEWTON: ws.rigid.solver = RigidSolverKind::Newton; break;
+        }
+        auto world = std::make_unique<World>(ws);  // validates the rest (throws invalid_argument)
+        *out = register_world(std::move(world));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_destroy(sinew_world_id id) {
+    return guarded("sinew_world_destroy", [&] {
+        World* w = find_world(id, "sinew_world_destroy");
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, "sinew_world_destroy")) return s;
+        unregister_world(id);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_taken, float* alpha) {
+    return guarded("sinew_world_step", [&] {
+        World* w = find_world(id, "sinew_world_step");
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, "sinew_world_step")) return s;
+        if (!std::isfinite(frame_dt) || frame_dt < 0)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                        "sinew_world_step: frame_dt = " + to_text(frame_dt) + " must be finite and >= 0");
+        int n = w->advance(Real(frame_dt));
+        if (steps_taken) *steps_taken = n;
+        if (alpha) *alpha = float(w->interpolation_alpha());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_step_fixed(sinew_world_id id) {
+    return guarded("sinew_world_step_fixed", [&] {
+        World* w = find_world(id, "sinew_world_step_fixed");
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, "sinew_world_step_fixed")) return s;
+        w->step();
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_body_count(sinew_world_id id, int* out) {
+    return guarded("sinew_world_body_count", [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, "sinew_world_body_count: out is NULL");
+        World* w = find_world(id, "sinew_world_body_count");
+        if (!w) return SINEW_ERROR_STALE_ID;
+        *out = int(w->rigid().body_count());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_transforms(sinew_world_id id, sinew_body_id* ids, sinew_transform* transforms,
+                                        int capacity, int* count) {
+    return guarded("sinew_world_get_transforms", [&] {
+        if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, "sinew_world_get_transforms: count is NULL");
+        if (capacity < 0)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                        "sinew_world_get_transforms: capacity = " + std::to_string(capacity) + " must be >= 0");
+        World* w = find_world(id, "sinew_world_get_transforms");
+        if (!w) return SINEW_ERROR_STALE_ID;
+        const RigidSystem& r = w->rigid();
+        int n = 0;
+        // Slot order, no allocation: walk the slots directly.
+        for (std::uint32_t s = 0; s < r.slot_count() && n < capacity; ++s) {
+            if (!r.slot_alive(s)) continue;
+            BodyId b = r.id_of_slot(s);
+            if (ids) ids[n] = {pack_world(id), b.index, b.generation};
+            if (transforms) transforms[n] = to_c(r.transform(b));
+            ++n;
+        }
+        *count = n;
+        return SINEW_OK;
+    });
+}
+
+}  // extern "C"

@@ -1,0 +1,175 @@
+// The C API: valid use gives the same physics as the C++ world; invalid use (NULL, stale handles, NaN,
+// negative mass, out-of-range enums, calls during a step) returns the documented status with a message
+// naming the argument, and leaves the world as it was.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "engine/api/sinew.h"
+#include "engine/world/world.hpp"
+
+namespace {
+
+sinew_world_id make_world() {
+    sinew_world_def d = sinew_world_def_default();
+    sinew_world_id w{};
+    REQUIRE(sinew_world_create(&d, &w) == SINEW_OK);
+    return w;
+}
+
+int body_count(sinew_world_id w) {
+    int n = -1;
+    REQUIRE(sinew_world_body_count(w, &n) == SINEW_OK);
+    return n;
+}
+
+}  // namespace
+
+TEST_CASE("C API: a box dropped through the C API lands where the C++ world puts it", "[capi]") {
+    sinew_world_id w = make_world();
+    sinew_body_def g = sinew_body_def_default();
+    g.type = SINEW_BODY_STATIC;
+    g.shape.half_extents = {10, 0.5f, 10};
+    g.transform.p.y = -0.5f;
+    sinew_body_id gid;
+    REQUIRE(sinew_body_create(w, &g, &gid) == SINEW_OK);
+    sinew_body_def b = sinew_body_def_default();
+    b.transform.p.y = 2;
+    b.mass = 1;
+    b.user_data = 42;
+    sinew_body_id bid;
+    REQUIRE(sinew_body_create(w, &b, &bid) == SINEW_OK);
+
+    // The same scene in C++.
+    sinew::World cw;
+    sinew::BodyDef cg;
+    cg.type = sinew::BodyType::Static;
+    cg.shape = sinew::make_box(sinew::Vec3(10, 0.5f, 10));
+    cg.pose.p = sinew::Vec3(0, -0.5f, 0);
+    cw.rigid().create_body(cg);
+    sinew::BodyDef cb;
+    cb.shape = sinew::make_box(sinew::Vec3(0.5f, 0.5f, 0.5f));
+    cb.pose.p = sinew::Vec3(0, 2, 0);
+    cb.mass = 1;
+    sinew::BodyId cid = cw.rigid().create_body(cb);
+
+    for (int i = 0; i < 90; ++i) {
+        REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+        cw.step();
+    }
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(bid, &t) == SINEW_OK);
+    // Same engine, same steps: identical to float rounding (the C API converts at the boundary).
+    CHECK(t.p.y == Approx(double(cw.rigid().transform(cid).p.y())).margin(1e-6));
+    CHECK(t.p.y == Approx(0.5).margin(0.01));  // resting on the ground
+    uint64_t ud = 0;
+    REQUIRE(sinew_body_user_data(bid, &ud) == SINEW_OK);
+    CHECK(ud == 42);
+
+    sinew_body_id ids[4];
+    sinew_transform xf[4];
+    int count = 0;
+    REQUIRE(sinew_world_get_transforms(w, ids, xf, 4, &count) == SINEW_OK);
+    CHECK(count == 2);
+    CHECK(ids[1].index == bid.index);
+    CHECK(xf[1].p.y == t.p.y);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+TEST_CASE("C API: accumulator stepping reports steps and the interpolation fraction", "[capi]") {
+    sinew_world_def d = sinew_world_def_default();
+    d.time_step = 0.01f;
+    sinew_world_id w;
+    REQUIRE(sinew_world_create(&d, &w) == SINEW_OK);
+    int steps = 0;
+    float alpha = 0;
+    REQUIRE(sinew_world_step(w, 0.025f, &steps, &alpha) == SINEW_OK);
+    CHECK(steps == 2);
+    CHECK(alpha == Approx(0.5).margin(1e-3));
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+TEST_CASE("C API: bad input is rejected with a status, a message, and an unchanged world", "[capi][errors]") {
+    sinew_world_id w = make_world();
+    sinew_body_def ok = sinew_body_def_default();
+    sinew_body_id id;
+    REQUIRE(sinew_body_create(w, &ok, &id) == SINEW_OK);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    auto expect = [&](sinew_status got, sinew_status want, const char* fragment) {
+        CHECK(got == want);
+        CHECK_THAT(std::string(sinew_last_error()), Catch::Contains(fragment));
+        CHECK(body_count(w) == 1);
+    };
+
+    expect(sinew_body_create(w, nullptr, &id), SINEW_ERROR_NULL_ARGUMENT, "def is NULL");
+    expect(sinew_body_create(w, &ok, nullptr), SINEW_ERROR_NULL_ARGUMENT, "out is NULL");
+    sinew_body_def bad = ok;
+    bad.mass = -1;
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->mass = -1");
+    bad = ok;
+    bad.transform.p.x = nan;
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->transform.p");
+    bad = ok;
+    bad.transform.q = {0, 0, 0, 0};
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->transform.q");
+    bad = ok;
+    bad.type = static_cast<sinew_body_type>(7);
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->type = 7");
+    bad = ok;
+    bad.shape.type = static_cast<sinew_shape_type>(9);
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "shape.type = 9");
+    bad = ok;
+    bad.shape.half_extents.y = 0;  // degenerate box
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "half extent y");
+    bad = ok;
+    bad.restitution = 2;
+    expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "restitution");
+
+    sinew_transform before;
+    REQUIRE(sinew_body_get_transform(id, &before) == SINEW_OK);
+    sinew_transform nan_xf = before;
+    nan_xf.p.y = nan;
+    expect(sinew_body_set_transform(id, &nan_xf), SINEW_ERROR_INVALID_ARGUMENT, "transform->p");
+    expect(sinew_body_set_velocity(id, {nan, 0, 0}, {0, 0, 0}), SINEW_ERROR_INVALID_ARGUMENT, "finite");
+    expect(sinew_body_apply_force(id, {0, nan, 0}, {0, 0, 0}), SINEW_ERROR_INVALID_ARGUMENT, "finite");
+    sinew_transform after;
+    REQUIRE(sinew_body_get_transform(id, &after) == SINEW_OK);
+    CHECK(after.p.y == before.p.y);
+
+    expect(sinew_world_step(w, -1, nullptr, nullptr), SINEW_ERROR_INVALID_ARGUMENT, "frame_dt = -1");
+    expect(sinew_world_step(w, nan, nullptr, nullptr), SINEW_ERROR_INVALID_ARGUMENT, "frame_dt");
+
+    // Handles: null, stale (destroyed), foreign (another world's).
+    sinew_body_id null_body{};
+    expect(sinew_body_get_transform(null_body, &after), SINEW_ERROR_STALE_ID, "null handle");
+    sinew_body_id gone;
+    REQUIRE(sinew_body_create(w, &ok, &gone) == SINEW_OK);
+    REQUIRE(sinew_body_destroy(gone) == SINEW_OK);
+    expect(sinew_body_get_transform(gone, &after), SINEW_ERROR_STALE_ID, "destroyed");
+    expect(sinew_body_destroy(gone), SINEW_ERROR_STALE_ID, "destroyed");
+    sinew_world_id other = make_world();
+    sinew_body_id foreign;
+    REQUIRE(sinew_body_create(other, &ok, &foreign) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(other) == SINEW_OK);
+    expect(sinew_body_get_transform(foreign, &after), SINEW_ERROR_STALE_ID, "destroyed or was never created");
+    expect(sinew_world_destroy(other), SINEW_ERROR_STALE_ID, "destroyed or was never created");
+    sinew_world_id null_world{};
+    CHECK(sinew_world_step_fixed(null_world) == SINEW_ERROR_STALE_ID);
+
+    sinew_world_def wd = sinew_world_def_default();
+    wd.solver = static_cast<sinew_solver>(12);
+    sinew_world_id w2;
+    CHECK(sinew_world_create(&wd, &w2) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("def->solver = 12"));
+    wd = sinew_world_def_default();
+    wd.time_step = 0;
+    CHECK(sinew_world_create(&wd, &w2) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_create(nullptr, &w2) == SINEW_ERROR_NULL_ARGUMENT);
+
+    // A successful call clears the message.
+    REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    CHECK(std::string(sinew_last_error()).empty());
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
