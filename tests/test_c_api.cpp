@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -11,6 +12,12 @@
 #include "engine/world/world.hpp"
 
 namespace {
+
+/// Stores an out-of-range value in a C enum field the way a C caller can (a C++ cast would be UB).
+template <class E>
+void poke(E& field, int value) {
+    std::memcpy(&field, &value, sizeof value);
+}
 
 sinew_world_id make_world() {
     sinew_world_def d = sinew_world_def_default();
@@ -115,10 +122,10 @@ TEST_CASE("C API: bad input is rejected with a status, a message, and an unchang
     bad.transform.q = {0, 0, 0, 0};
     expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->transform.q");
     bad = ok;
-    bad.type = static_cast<sinew_body_type>(7);
+    poke(bad.type, 7);
     expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "def->type = 7");
     bad = ok;
-    bad.shape.type = static_cast<sinew_shape_type>(9);
+    poke(bad.shape.type, 9);
     expect(sinew_body_create(w, &bad, &id), SINEW_ERROR_INVALID_ARGUMENT, "shape.type = 9");
     bad = ok;
     bad.shape.half_extents.y = 0;  // degenerate box
@@ -159,7 +166,7 @@ TEST_CASE("C API: bad input is rejected with a status, a message, and an unchang
     CHECK(sinew_world_step_fixed(null_world) == SINEW_ERROR_STALE_ID);
 
     sinew_world_def wd = sinew_world_def_default();
-    wd.solver = static_cast<sinew_solver>(12);
+    poke(wd.solver, 12);
     sinew_world_id w2;
     CHECK(sinew_world_create(&wd, &w2) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("def->solver = 12"));

@@ -15,12 +15,13 @@ sinew_status invalid(const char* fn, const std::string& what) {
 
 /// Checks and converts a shape definition; the factories check the dimensions.
 Shape make_shape(const sinew_shape_def& d) {
-    switch (d.type) {
+    switch (enum_value(d.type)) {
         case SINEW_SHAPE_SPHERE: return make_sphere(Real(d.radius));
         case SINEW_SHAPE_BOX: return make_box(to_vec(d.half_extents));
         case SINEW_SHAPE_CAPSULE: return make_capsule(Real(d.half_height), Real(d.radius));
+        default: break;
     }
-    throw ShapeError("def->shape.type = " + std::to_string(int(d.type)) + " is not a sinew_shape_type");
+    throw ShapeError("def->shape.type = " + std::to_string(enum_value(d.type)) + " is not a sinew_shape_type");
 }
 
 bool unit_quat_ok(const sinew_quat& q) {
@@ -78,18 +79,19 @@ sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, 
         World* w = find_world(world, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
         if (w->in_step()) return fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
-        if (def->type < SINEW_BODY_STATIC || def->type > SINEW_BODY_DYNAMIC)
-            return invalid(fn, "def->type = " + std::to_string(int(def->type)) + " is not a sinew_body_type");
+        const int type = enum_value(def->type);
+        if (type < SINEW_BODY_STATIC || type > SINEW_BODY_DYNAMIC)
+            return invalid(fn, "def->type = " + std::to_string(type) + " is not a sinew_body_type");
         if (!finite(def->transform.p)) return invalid(fn, "def->transform.p must be finite");
         if (!unit_quat_ok(def->transform.q)) return invalid(fn, "def->transform.q must be a finite non-zero quaternion");
         if (!std::isfinite(def->mass) || def->mass < 0)
             return invalid(fn, "def->mass = " + to_text(def->mass) + " must be finite and >= 0 (0 = from density)");
-        if (def->mass == 0 && def->type == SINEW_BODY_DYNAMIC && !(def->density > 0 && std::isfinite(def->density)))
+        if (def->mass == 0 && type == SINEW_BODY_DYNAMIC && !(def->density > 0 && std::isfinite(def->density)))
             return invalid(fn, "def->density = " + to_text(def->density) + " must be finite and > 0 when mass is 0");
         BodyDef b;
-        b.type = def->type == SINEW_BODY_STATIC ? BodyType::Static
-                 : def->type == SINEW_BODY_KINEMATIC ? BodyType::Kinematic
-                                                      : BodyType::Dynamic;
+        b.type = type == SINEW_BODY_STATIC ? BodyType::Static
+                 : type == SINEW_BODY_KINEMATIC ? BodyType::Kinematic
+                                                 : BodyType::Dynamic;
         b.pose = {to_vec(def->transform.p), to_quat(def->transform.q).normalized()};
         b.linear_velocity = to_vec(def->linear_velocity);
         b.angular_velocity = to_vec(def->angular_velocity);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 
@@ -33,6 +34,16 @@ inline sinew_transform to_c(const Transform& t) {
     return {to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
 }
 bool finite(const sinew_vec3& v);
+
+/// The integer a C caller stored in an enum field. Reading an out-of-range value through the C++ enum
+/// type would be undefined behaviour (UBSan flags it), so the bytes are read as an int.
+template <class E>
+int enum_value(const E& e) {
+    static_assert(sizeof(E) == sizeof(int), "C enums are int-sized");
+    int v;
+    std::memcpy(&v, &e, sizeof v);
+    return v;
+}
 
 /// Runs f() (returning sinew_status) and maps every exception to a status and message naming `fn`.
 template <class F>

@@ -40,9 +40,10 @@ sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out)
         if (!(def->time_step > 0 && def->time_step <= 1))
             return fail(SINEW_ERROR_INVALID_ARGUMENT,
                         std::string(fn) + ": def->time_step = " + to_text(def->time_step) + " must be in (0, 1] s");
-        if (def->solver < SINEW_SOLVER_SOFT_STEP || def->solver > SINEW_SOLVER_NEWTON)
+        const int solver = enum_value(def->solver);
+        if (solver < SINEW_SOLVER_SOFT_STEP || solver > SINEW_SOLVER_NEWTON)
             return fail(SINEW_ERROR_INVALID_ARGUMENT,
-                        std::string(fn) + ": def->solver = " + std::to_string(int(def->solver)) + " is not a sinew_solver");
+                        std::string(fn) + ": def->solver = " + std::to_string(solver) + " is not a sinew_solver");
         if (def->enable_sleep != 0 && def->enable_sleep != 1)
             return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->enable_sleep must be 0 or 1");
         WorldSettings ws;
@@ -51,11 +52,11 @@ sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out)
         ws.rigid.gravity = to_vec(def->gravity);
         ws.rigid.velocity_iterations = def->velocity_iterations;
         ws.rigid.sleeping = def->enable_sleep == 1;
-        switch (def->solver) {
+        switch (solver) {
             case SINEW_SOLVER_SOFT_STEP: ws.rigid.correction = PositionCorrection::SoftStep; break;
             case SINEW_SOLVER_SPLIT_IMPULSE: ws.rigid.correction = PositionCorrection::SplitImpulse; break;
             case SINEW_SOLVER_BAUMGARTE: ws.rigid.correction = PositionCorrection::Baumgarte; break;
-            case SINEW_SOLVER_NEWTON: ws.rigid.solver = RigidSolverKind::Newton; break;
+            default: ws.rigid.solver = RigidSolverKind::Newton; break;
         }
         auto world = std::make_unique<World>(ws);  // validates the rest (throws invalid_argument)
         *out = register_world(std::move(world));
