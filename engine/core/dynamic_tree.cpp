@@ -180,7 +180,11 @@ void DynamicTree::insert_leaf(std::int32_t leaf) {
     nodes_[leaf].parent = new_parent;
 
     // ---- 3. walk back up: rotate where unbalanced, refit boxes and heights ----
-    std::int32_t index = nodes_[leaf].parent;
+    refit_upward(nodes_[leaf].parent);
+}
+
+void DynamicTree::refit_upward(std::int32_t index) {
+    // From `index` to the root: rotate where unbalanced, refit boxes and heights.
     while (index != kNull) {
         index = balance(index);
         Node& n = nodes_[index];
@@ -215,16 +219,7 @@ void DynamicTree::remove_leaf(std::int32_t leaf) {
         nodes_[sibling].parent = grand;
         release(parent);
 
-        std::int32_t index = grand;
-        while (index != kNull) {
-            index = balance(index);
-            Node& n = nodes_[index];
-            const Node& a = nodes_[n.child1];
-            const Node& b = nodes_[n.child2];
-            n.height = 1 + std::max(a.height, b.height);
-            n.box = a.box.merged(b.box);
-            index = n.parent;
-        }
+        refit_upward(grand);
     }
     nodes_[leaf].parent = kNull;
 }

@@ -52,6 +52,7 @@ private:
     void insert_leaf(std::int32_t leaf);
     void remove_leaf(std::int32_t leaf);
     std::int32_t balance(std::int32_t node);
+    void refit_upward(std::int32_t index);
 
     std::vector<Node> nodes_;
     std::int32_t root_ = kNull;
