@@ -92,6 +92,21 @@ public:
     /// Joints that broke during the last step (cleared at the start of each step).
     const std::vector<JointId>& broken_joints() const { return broken_joints_; }
 
+    /// Calls f(slot) for every live body whose fattened broad-phase box overlaps `box` (coupling layers
+    /// find the rigid shapes near a soft body this way).
+    template <class F>
+    void query_bodies(const Aabb& box, F&& f) const {
+        tree_.query(box, [&](std::int32_t proxy) {
+            f(tree_.user_data(proxy));
+            return true;
+        });
+    }
+    /// Body origin transform by slot (no check), for coupling layers.
+    Transform slot_transform(std::uint32_t slot) const { return origin_transform(slot); }
+    /// Shape and material by slot (no check), for coupling layers.
+    const Shape& slot_shape(std::uint32_t slot) const { return shape_[slot]; }
+    const Material& slot_material(std::uint32_t slot) const { return material_[slot]; }
+
     /// Kinetic energy of all dynamic bodies (J).
     double kinetic_energy() const;
     /// Deepest penetration among current contacts (m, >= 0).

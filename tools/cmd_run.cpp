@@ -88,7 +88,8 @@ int run(const std::vector<std::string>& args) {
     std::vector<double> step_ms;
     step_ms.reserve(static_cast<std::size_t>(steps));
     double max_penetration = 0;
-    bool finite = rigid.all_finite();
+    const SoftSystem& soft = world->soft();
+    bool finite = rigid.all_finite() && soft.all_finite();
     long long done = 0;
     while (finite && done < steps) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -96,22 +97,27 @@ int run(const std::vector<std::string>& args) {
         const auto t1 = std::chrono::steady_clock::now();
         step_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
         ++done;
-        finite = rigid.all_finite();  // stop at the first blow-up: later steps would measure garbage
+        finite = rigid.all_finite() && soft.all_finite();  // stop at the first blow-up: later steps would measure garbage
         max_penetration = std::max(max_penetration, static_cast<double>(rigid.max_penetration()));
         if (recorder) recorder->write_frame(*world, static_cast<std::uint64_t>(done));
     }
     if (recorder) recorder->finish();
 
-    const double energy = rigid.kinetic_energy();
+    const double energy = rigid.kinetic_energy() + soft.kinetic_energy();
+    double max_stretch = 1;
+    for (SoftBodyId id : soft.bodies()) max_stretch = std::max(max_stretch, double(soft.body(id).max_stretch()));
     nlohmann::ordered_json out;
     out["scene"] = scene.name;
     out["steps"] = done;
     out["bodies"] = rigid.body_count();
+    out["soft_bodies"] = soft.body_count();
+    out["particles"] = soft.particle_count();
     out["ms_per_step_median"] = round_sig(median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))
                                                             : nlohmann::ordered_json(nullptr);
     out["kinetic_energy"] = finite && std::isfinite(energy) ? nlohmann::ordered_json(round_sig(energy, 6))
                                                             : nlohmann::ordered_json(nullptr);
+    out["max_stretch"] = finite ? nlohmann::ordered_json(round_sig(max_stretch, 4)) : nlohmann::ordered_json(nullptr);
     out["finite"] = finite;
     std::cout << out.dump() << std::endl;
     return finite ? kExitOk : kExitNonFinite;
@@ -125,13 +131,15 @@ const Command run_command = {
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
-    "  {\"scene\", \"steps\" (taken), \"bodies\", \"ms_per_step_median\" (wall time), \"max_penetration\" (m,\n"
-    "   deepest contact over the run), \"kinetic_energy\" (J, at the end), \"finite\"}\n"
+    "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"ms_per_step_median\" (wall\n"
+    "   time), \"max_penetration\" (m, deepest rigid contact over the run), \"kinetic_energy\" (J, rigid and\n"
+    "   soft, at the end), \"max_stretch\" (largest current/rest length of a soft link at the end), \"finite\"}\n"
     "A step that leaves any body state NaN or infinite stops the run with \"finite\": false.\n"
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
-    "  --record FILE   write every frame's body transforms to FILE (docs/record-format.md)\n"
+    "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
+    "                  (docs/record-format.md)\n"
     "\n"
     "Exit status: 0 ok, 1 bad scene or unwritable record, 2 bad arguments, 3 the run was not finite.\n"};
 

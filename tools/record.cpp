@@ -98,7 +98,22 @@ Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World&
                           {"shape", shape_json(rigid.shape(ids_[i]))}});
     }
     header["bodies"] = std::move(bodies);
-    header["particles"] = Json::array();  // reserved for soft bodies
+    // Soft bodies: one entry per body in creation order (scene order), with its surface triangles so a
+    // viewer can draw it; the frames carry the particle positions.
+    Json soft = Json::array();
+    soft_ids_ = world.soft().bodies();
+    for (std::size_t i = 0; i < soft_ids_.size(); ++i) {
+        const SoftBody& b = world.soft().body(soft_ids_[i]);
+        Json tris = Json::array();
+        for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3)
+            tris.push_back({b.triangles[t], b.triangles[t + 1], b.triangles[t + 2]});
+        soft.push_back({{"name", i < scene.soft_bodies.size() ? scene.soft_bodies[i].name : "soft-" + std::to_string(i)},
+                        {"method", soft_method_name(b.def.method)},
+                        {"count", b.p.size()},
+                        {"thickness", tidy(b.def.thickness)},
+                        {"triangles", std::move(tris)}});
+    }
+    header["particles"] = std::move(soft);
     out_ << header.dump() << '\n';
 }
 
@@ -119,6 +134,20 @@ void Recorder::write_frame(const World& world, std::uint64_t frame) {
         for (int k = 0; k < 7; ++k) {
             if (k) line_ += ',';
             append_number(line_, values[k]);
+        }
+        line_ += ']';
+    }
+    line_ += "],\"particles\":[";
+    for (std::size_t i = 0; i < soft_ids_.size(); ++i) {
+        const Particles& p = world.soft().body(soft_ids_[i]).p;
+        line_ += i ? ",[" : "[";
+        for (std::size_t k = 0; k < p.size(); ++k) {
+            if (k) line_ += ',';
+            append_number(line_, p.x[k].x());
+            line_ += ',';
+            append_number(line_, p.x[k].y());
+            line_ += ',';
+            append_number(line_, p.x[k].z());
         }
         line_ += ']';
     }

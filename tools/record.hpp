@@ -1,5 +1,5 @@
-// Recording a run for playback: the header names every body and its shape, then one line per frame holds
-// each body's transform. Format: docs/record-format.md.
+// Recording a run for playback: the header names every body and its shape (and every soft body with its
+// surface), then one line per frame holds each body's transform and each soft body's particle positions. Format: docs/record-format.md.
 #pragma once
 
 #include <fstream>
@@ -26,6 +26,7 @@ private:
     std::string path_;
     std::ofstream out_;
     std::vector<BodyId> ids_;
+    std::vector<SoftBodyId> soft_ids_;  ///< soft bodies at the start, in creation order
     std::string line_;  // reused for every frame, so recording allocates nothing per frame once warm
 };
 

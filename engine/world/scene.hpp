@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/world/world.hpp"
+#include "soft/soft_builders.hpp"
 
 namespace sinew {
 
@@ -44,6 +45,22 @@ struct SceneJoint {
     JointDef def;
 };
 
+/// One soft body of a scene, fully resolved: `def` holds the geometry the builder made, the method,
+/// solver and material settings. `builder` and its parameters are kept so other engines (the benchmark's
+/// Bullet) can build the same body their own way (btSoftBodyHelpers::CreatePatch for a cloth grid).
+struct SceneSoftBody {
+    std::string name;
+    std::string json_path;      ///< "/soft_bodies/2"
+    std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box"
+    ClothGridDesc cloth;        ///< builder == "cloth": the grid as described
+    std::vector<std::uint32_t> cloth_pinned_corners;  ///< builder == "cloth": pinned node indices
+    LinkMaterial links;         ///< the link material the builder used
+    SoftBodyDef def;            ///< geometry, method, solver settings, material
+    /// Attachments to scene bodies: def.attachments[k].target is filled in by build_world from
+    /// attachment_bodies[k] (an index into SceneDesc::bodies).
+    std::vector<std::size_t> attachment_bodies;
+};
+
 /// A parsed and validated scene.
 struct SceneDesc {
     std::string file;         ///< where it came from (path or origin name)
@@ -53,6 +70,7 @@ struct SceneDesc {
     int steps = 600;          ///< default step count for `sinew run`
     std::vector<SceneBody> bodies;  ///< "bodies" in file order, then each generator's bodies in order
     std::vector<SceneJoint> joints; ///< "joints" in file order
+    std::vector<SceneSoftBody> soft_bodies;  ///< "soft_bodies" in file order
 };
 
 constexpr const char* kSceneFormat = "sinew-scene";  ///< value of the "format" key

@@ -32,6 +32,16 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
             throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
         }
     }
+    for (const SceneSoftBody& soft : scene.soft_bodies) {
+        SoftBodyDef def = soft.def;
+        for (std::size_t k = 0; k < def.attachments.size(); ++k)
+            def.attachments[k].target = pack_body_id(out.at(soft.attachment_bodies[k]));
+        try {
+            world->soft().create_body(std::move(def));
+        } catch (const std::invalid_argument& e) {  // SoftError
+            throw SceneError(scene.file, soft.json_path, "soft body \"" + soft.name + "\": " + e.what());
+        }
+    }
     return world;
 }
 

@@ -113,3 +113,11 @@ T read_enum(const Node& obj, const char* key, T fallback, const std::pair<const 
 }
 
 }  // namespace sinew::scene_json
+
+namespace sinew::scene_json {
+
+/// Reads the "soft_bodies" array into desc.soft_bodies (engine/world/scene_soft.cpp). Attachments name
+/// bodies of desc.bodies, so it runs after the bodies and generators.
+void parse_soft_bodies(const Node& array, SceneDesc& desc);
+
+}  // namespace sinew::scene_json

@@ -70,11 +70,10 @@ public:
             for (std::size_t i = 0; i < count; ++i) parse_generator(n->item(i), i);
         }
         if (auto n = root_.find("joints")) parse_joints(*n);  // after the bodies: joints name them
-        for (const char* reserved : {"soft_bodies", "coupling"}) {
-            std::optional<Node> n = root_.find(reserved);
-            if (n && !(n->json().is_array() && n->json().empty()))
-                n->fail(std::string(reserved) +
-                        " are not supported yet (reserved for a later version of the format); "
+        if (auto n = root_.find("soft_bodies")) parse_soft_bodies(*n, desc_);  // attachments name bodies
+        if (auto n = root_.find("coupling")) {
+            if (!(n->json().is_array() && n->json().empty()))
+                n->fail("coupling is not supported yet (reserved for a later version of the format); "
                         "leave the key out or give an empty array");
         }
         return std::move(desc_);
@@ -136,6 +135,9 @@ private:
             r.sleep_angular_velocity = read_real(o, "angular_velocity", r.sleep_angular_velocity, Range::NonNegative);
             r.sleep_time = read_real(o, "time", r.sleep_time, Range::NonNegative);
         }
+        // One sleeping switch for the world: soft bodies follow the rigid settings.
+        w.soft.sleeping = r.sleeping;
+        if (r.sleep_time > 0) w.soft.sleep_time = r.sleep_time;
     }
 
     // ---- materials ----------------------------------------------------------------------------------

@@ -19,6 +19,12 @@ World::World(const WorldSettings& settings) : settings_(settings) {
                                     std::to_string(settings.max_steps_per_frame));
     rigid_ = std::make_unique<RigidSystem>(settings.rigid);
     pipeline_.add_system(rigid_.get());
+    SoftSettings soft = settings.soft;
+    soft.gravity = settings.rigid.gravity;
+    settings_.soft.gravity = soft.gravity;
+    soft_ = std::make_unique<SoftSystem>(soft);
+    pipeline_.add_system(soft_.get());
+    coupling_ = std::make_unique<OneWayCoupling>(pipeline_, *rigid_, *soft_);
 }
 
 World::~World() = default;

@@ -1,11 +1,13 @@
-// The World composes the systems (rigid now; soft bodies and coupling layers register the same way) and
+// The World composes the systems (rigid, then soft) and the coupling layer between them (one-way for now), and
 // steps them through the pipeline with a fixed internal step and an accumulator for variable frame times.
 #pragma once
 
 #include <memory>
 
+#include "coupling/one_way_coupling.hpp"
 #include "engine/core/pipeline.hpp"
 #include "rigid/rigid_system.hpp"
+#include "soft/soft_system.hpp"
 
 namespace sinew {
 
@@ -13,6 +15,7 @@ struct WorldSettings {
     Real time_step = Real(1) / 60;   ///< fixed internal step h (s)
     int max_steps_per_frame = 8;     ///< accumulator cap, so a slow frame cannot spiral
     RigidSettings rigid;
+    SoftSettings soft;               ///< soft.gravity is ignored: the world's gravity is rigid.gravity
 };
 
 class World {
@@ -24,6 +27,8 @@ public:
 
     RigidSystem& rigid() { return *rigid_; }
     const RigidSystem& rigid() const { return *rigid_; }
+    SoftSystem& soft() { return *soft_; }
+    const SoftSystem& soft() const { return *soft_; }
     Pipeline& pipeline() { return pipeline_; }
     const Pipeline& pipeline() const { return pipeline_; }
     const WorldSettings& settings() const { return settings_; }
@@ -46,6 +51,8 @@ private:
     WorldSettings settings_;
     Pipeline pipeline_;
     std::unique_ptr<RigidSystem> rigid_;
+    std::unique_ptr<SoftSystem> soft_;
+    std::unique_ptr<OneWayCoupling> coupling_;
     Real accumulator_ = 0;
     double time_ = 0;
     bool in_step_ = false;

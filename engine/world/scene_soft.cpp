@@ -1,0 +1,192 @@
+// The "soft_bodies" section of scene files: each entry names a builder (soft/soft_builders.hpp), a
+// method, a link material, solver settings, pins and attachments (docs/scene-format.md, "Soft bodies").
+#include <filesystem>
+#include <unordered_map>
+
+#include "engine/world/scene_json.hpp"
+#include "soft/soft_builders.hpp"
+
+namespace sinew::scene_json {
+namespace {
+
+const std::pair<const char*, SoftMethod> kMethods[] = {
+    {"verlet", SoftMethod::Verlet},
+    {"explicit", SoftMethod::ExplicitEuler},
+    {"semi-implicit", SoftMethod::SemiImplicitEuler},
+    {"implicit", SoftMethod::ImplicitEuler},
+    {"fast-ms", SoftMethod::FastMassSpring}};
+
+LinkMaterial parse_link_material(const Node& body) {
+    LinkMaterial m;
+    std::optional<Node> n = body.find("links");
+    if (!n) return m;
+    n->allow_keys({"stretch", "shear", "bend", "damping", "fraction"});
+    m.stretch = read_real(*n, "stretch", m.stretch, Range::NonNegative);
+    m.shear = read_real(*n, "shear", m.shear, Range::NonNegative);
+    m.bend = read_real(*n, "bend", m.bend, Range::NonNegative);
+    m.damping = read_real(*n, "damping", m.damping, Range::NonNegative);
+    m.fraction = read_real(*n, "fraction", m.fraction, Range::UnitInterval);
+    if (m.fraction <= 0) n->get("fraction").fail("fraction must be in (0, 1], got 0");
+    return m;
+}
+
+void parse_solver(const Node& body, SoftBodyDef& d) {
+    std::optional<Node> n = body.find("solver");
+    if (!n) return;
+    n->allow_keys({"iterations", "cg_tolerance", "isotropic_blend", "implicit_lambda", "long_range_attachments"});
+    d.iterations = read_int(*n, "iterations", d.iterations, 1, 10000);
+    d.cg_tolerance = read_real(*n, "cg_tolerance", d.cg_tolerance, Range::Positive);
+    if (d.cg_tolerance >= 1) n->get("cg_tolerance").fail("cg_tolerance must be < 1");
+    d.isotropic_blend = read_real(*n, "isotropic_blend", d.isotropic_blend, Range::UnitInterval);
+    d.implicit_lambda = read_real(*n, "implicit_lambda", d.implicit_lambda, Range::UnitInterval);
+    if (d.implicit_lambda < Real(0.5))
+        n->get("implicit_lambda").fail("implicit_lambda must be in [0.5, 1] (0.5 = implicit midpoint, 1 = backward Euler)");
+    d.long_range_attachments = read_bool(*n, "long_range_attachments", d.long_range_attachments);
+}
+
+void parse_material(const Node& body, SoftBodyDef& d) {
+    std::optional<Node> n = body.find("material");
+    if (!n) return;
+    n->allow_keys({"drag", "pressure", "friction", "restitution", "thickness"});
+    d.drag = read_real(*n, "drag", d.drag, Range::NonNegative);
+    d.pressure = read_real(*n, "pressure", d.pressure, Range::NonNegative);
+    d.friction = read_real(*n, "friction", d.friction, Range::NonNegative);
+    d.restitution = read_real(*n, "restitution", d.restitution, Range::UnitInterval);
+    d.thickness = read_real(*n, "thickness", d.thickness, Range::Positive);
+}
+
+Real total_mass(const Node& body) { return read_real(body, "mass", 1, Range::Positive); }
+
+// Builds the geometry. Returns the def with geometry filled; SoftError from a builder is reported at the
+// body's path.
+void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef& base, SceneSoftBody& out) {
+    const LinkMaterial& m = out.links;
+    if (builder == "cloth") {
+        ClothGridDesc c;
+        const Node nodes = b.get("nodes");
+        if (nodes.array_size() != 2) nodes.fail("nodes must be [nx, ny], got " + describe(nodes.json()));
+        c.nx = checked_int(nodes.item(0), 2, 4096);
+        c.ny = checked_int(nodes.item(1), 2, 4096);
+        c.origin = read_vec3(b, "origin", c.origin);
+        c.edge_u = read_vec3(b, "edge_u", c.edge_u);
+        c.edge_v = read_vec3(b, "edge_v", c.edge_v);
+        c.total_mass = total_mass(b);
+        c.shear = read_bool(b, "shear", c.shear);
+        c.bend = read_bool(b, "bend", c.bend);
+        c.material = m;
+        out.cloth = c;
+        out.def = make_cloth_grid(c, base);
+        if (auto pins = b.find("pinned_nodes")) {
+            for (std::size_t k = 0; k < pins->array_size(); ++k) {
+                const Node ij = pins->item(k);
+                if (ij.array_size() != 2) ij.fail("a pinned node is [i, j], got " + describe(ij.json()));
+                const int i = checked_int(ij.item(0), 0, c.nx - 1), j = checked_int(ij.item(1), 0, c.ny - 1);
+                out.cloth_pinned_corners.push_back(cloth_node(c, i, j));
+                out.def.pinned.push_back(cloth_node(c, i, j));
+            }
+        }
+    } else if (builder == "rope") {
+        out.def = make_rope(b.get("from").vec3(), b.get("to").vec3(), checked_int(b.get("segments"), 1, 100000),
+                            total_mass(b), m, base);
+    } else if (builder == "icosphere") {
+        out.def = make_icosphere(b.get("center").vec3(), checked(b.get("radius"), Range::Positive),
+                                 read_int(b, "subdivisions", 2, 0, 6), total_mass(b), m, base);
+    } else if (builder == "mesh") {
+        const Node obj = b.get("obj");
+        std::filesystem::path p(obj.string());
+        if (p.is_relative()) p = std::filesystem::path(b.ctx().dir) / p;
+        ObjMesh mesh;
+        try {
+            mesh = read_obj_file(p.string());
+        } catch (const std::runtime_error& e) {
+            obj.fail(e.what());
+        }
+        const Real scale = read_real(b, "scale", 1, Range::Positive);
+        const Vec3 offset = read_vec3(b, "position", Vec3::Zero());
+        for (Vec3& v : mesh.vertices) v = v * scale + offset;
+        out.def = make_mesh_body(mesh.vertices, mesh.indices, read_int(b, "link_distance", 1, 1, 3), total_mass(b), m, base);
+    } else if (builder == "ragdoll") {
+        out.def = make_particle_ragdoll(b.get("feet").vec3(), checked(b.get("height"), Range::Positive), total_mass(b), base);
+    } else if (builder == "stick-box") {
+        out.def = make_stick_box(b.get("center").vec3(), b.get("half_extents").vec3(), total_mass(b), base);
+    }
+}
+
+const char* const kBuilders[] = {"cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box"};
+
+}  // namespace
+
+void parse_soft_bodies(const Node& array, SceneDesc& desc) {
+    std::unordered_map<std::string, std::size_t> body_index;
+    for (std::size_t i = 0; i < desc.bodies.size(); ++i) body_index.emplace(desc.bodies[i].name, i);
+    const std::size_t count = array.array_size();
+    for (std::size_t k = 0; k < count; ++k) {
+        const Node b = array.item(k);
+        b.expect_object();
+        SceneSoftBody out;
+        out.json_path = b.path();
+        out.name = b.find("name") ? b.get("name").string() : "soft" + std::to_string(k);
+        out.builder = b.get("builder").string();
+        bool known = false;
+        for (const char* name : kBuilders) known = known || out.builder == name;
+        if (!known)
+            b.get("builder").fail("unknown builder \"" + out.builder + "\" (expected one of: " + one_of(kBuilders) + ")");
+        // Keys common to every builder, then the builder's own.
+        std::vector<const char*> keys = {"name", "builder", "method", "mass", "links", "solver", "material",
+                                         "pinned", "attachments", "velocity", "gravity_scale", "allow_sleep"};
+        if (out.builder == "cloth") keys.insert(keys.end(), {"nodes", "origin", "edge_u", "edge_v", "shear", "bend", "pinned_nodes"});
+        if (out.builder == "rope") keys.insert(keys.end(), {"from", "to", "segments"});
+        if (out.builder == "icosphere") keys.insert(keys.end(), {"center", "radius", "subdivisions"});
+        if (out.builder == "mesh") keys.insert(keys.end(), {"obj", "scale", "position", "link_distance"});
+        if (out.builder == "ragdoll") keys.insert(keys.end(), {"feet", "height"});
+        if (out.builder == "stick-box") keys.insert(keys.end(), {"center", "half_extents"});
+        std::vector<std::string> names;
+        for (const char* key : keys) names.emplace_back(key);
+        for (auto it = b.json().begin(); it != b.json().end(); ++it) {
+            bool ok = false;
+            for (const char* key : keys) ok = ok || it.key() == key;
+            if (!ok)
+                b.ctx().fail(b.path() + "/" + pointer_token(it.key()),
+                             "unknown key \"" + it.key() + "\" for a " + out.builder + " soft body (expected one of: " +
+                                 one_of(names) + ")");
+        }
+
+        SoftBodyDef base;
+        base.method = read_enum(b, "method", SoftMethod::Verlet, kMethods);
+        parse_solver(b, base);
+        parse_material(b, base);
+        base.initial_velocity = read_vec3(b, "velocity", Vec3::Zero());
+        base.gravity_scale = read_real(b, "gravity_scale", 1, Range::Any);
+        base.allow_sleep = read_bool(b, "allow_sleep", true);
+        out.links = parse_link_material(b);
+        try {
+            build_geometry(b, out.builder, base, out);
+        } catch (const SoftError& e) {
+            b.fail(e.what());
+        }
+        const std::size_t n = out.def.positions.size();
+        if (auto pins = b.find("pinned")) {
+            for (std::size_t i = 0; i < pins->array_size(); ++i) {
+                const Node pin = pins->item(i);
+                out.def.pinned.push_back(static_cast<std::uint32_t>(checked_int(pin, 0, static_cast<long long>(n) - 1)));
+            }
+        }
+        if (auto atts = b.find("attachments")) {
+            for (std::size_t i = 0; i < atts->array_size(); ++i) {
+                const Node a = atts->item(i);
+                a.allow_keys({"particle", "body", "local_point"});
+                Attachment att;
+                att.particle = static_cast<std::uint32_t>(checked_int(a.get("particle"), 0, static_cast<long long>(n) - 1));
+                const Node body = a.get("body");
+                auto it = body_index.find(body.string());
+                if (it == body_index.end()) body.fail("unknown body \"" + body.string() + "\"");
+                att.local_point = read_vec3(a, "local_point", Vec3::Zero());
+                out.def.attachments.push_back(att);
+                out.attachment_bodies.push_back(it->second);
+            }
+        }
+        desc.soft_bodies.push_back(std::move(out));
+    }
+}
+
+}  // namespace sinew::scene_json

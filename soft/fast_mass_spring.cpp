@@ -1,0 +1,213 @@
+// Fast mass-spring (Liu, Bargteil, O'Brien, Kavan 2013; seed 002; THEORY §4): implicit Euler written as
+//     x_{n+1} = argmin_x  1/(2h²) (x - y)ᵀ M' (x - y) + Σ_j ½ k_j (|x_a - x_b| - L_j)²,
+//     y = x_n + h (v_n + h M⁻¹ f_ext) / (1 + h drag),   M' = (1 + h drag) M,
+// with each spring's energy rewritten as min over a direction p_j, |p_j| = L_j, of ½ k_j |x_a - x_b - p_j|².
+// Block coordinate descent then alternates
+//     local:  p_j = L_j (x_a - x_b) / |x_a - x_b|   (the optimal direction for fixed x),
+//     global: (M'/h² + L) x = M' y / h² + J p      (the optimal x for fixed p),
+// with L = Σ_j k_j A_j A_jᵀ ⊗ I_3 and J = Σ_j k_j A_j S_jᵀ ⊗ I_3 (A_j the incidence vector of link j). The
+// matrix does not depend on the state, so one scalar sparse matrix (the three coordinates decouple) is
+// factored once (Eigen SimplicialLDLT, in a fill-reducing AMD order) and each iteration is two triangular
+// solves with three right-hand sides. b.def.iterations local/global iterations per step. Velocities are read
+// back: v_{n+1} = (x_{n+1} - x_n)/h.
+//
+// Initial guess: x = x_n + h v_n / (1 + h drag), the momentum prediction without the external forces. Under
+// gravity alone it differs from y by a uniform translation, which the local step cannot see (directions
+// are translation-invariant), so a free-flying body gets the same iterates as from x = y. But at rest
+// (v = 0) it starts from x_n, which makes a static equilibrium an exact fixed point of the step whatever
+// the iteration count. Starting from y instead, the pinned particles (which y does not move) bias the rest
+// shape by an error that only more iterations reduce: measured 1e-4 m on the 10x10 cloth of
+// tests/test_soft_cloth_equilibrium.cpp at k = 1000 N/m and 10 iterations, a force imbalance of half a
+// node's weight.
+//
+// Pinned particles (inverse mass 0) are eliminated: they are not unknowns; a link to a pinned particle
+// adds k to its free end's diagonal and k x_pinned (+/- k p_j) to its right-hand side. The factorization is
+// redone only when h, the drag, the pin set, the masses, or the links' ends or stiffnesses change.
+//
+// Damping: the method minimises a conservative energy, so it ignores the links' k_d (Liu et al. have no
+// spring damping either); bodies are damped by the drag and by implicit Euler's own numerical damping. The
+// drag is the implicit force -drag M v_{n+1}, v_{n+1} = (x - x_n)/h: moved to the left it scales the mass
+// to M' and divides Liu's inertial velocity v_n + h M⁻¹ f_ext by (1 + h drag), so the step gives
+// v_{n+1} = (v_n + h M⁻¹ (f_ext + f_springs(x_{n+1}))) / (1 + h drag), the drag every integrator shares, and
+// a body at rest feels all of its weight (scaling y alone would lighten gravity by 1/(1 + h drag) at
+// equilibrium). External forces (with gravity) and Matyka's pressure are explicit (at x_n), inside y.
+#include <Eigen/OrderingMethods>
+#include <memory>
+#include <string>
+
+#include "soft/soft_integrators.hpp"
+#include "soft/solver_caches.hpp"
+
+namespace sinew {
+
+namespace {
+
+constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
+
+bool factorization_is_current(const SoftBody& b, const FastMassSpringCache& c, double h) {
+    if (!c.factored || c.h != h || c.drag != b.def.drag) return false;
+    const std::size_t n = b.p.size(), m = b.links.size();
+    if (c.inv_mass.size() != n || c.link_stiffness.size() != m) return false;
+    for (std::size_t i = 0; i < n; ++i)
+        if (c.inv_mass[i] != b.p.inv_mass[i]) return false;
+    for (std::size_t j = 0; j < m; ++j) {
+        const Link& l = b.links[j];
+        if (c.link_ends[2 * j] != l.a || c.link_ends[2 * j + 1] != l.b || c.link_stiffness[j] != l.stiffness)
+            return false;
+    }
+    return true;
+}
+
+// Builds and factors M'/h² + L over the free particles (allocates; runs only when something changed).
+void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
+    const Particles& p = b.p;
+    const std::size_t n = p.size(), m = b.links.size();
+    using Triplet = Eigen::Triplet<double, int>;
+    using SparseMatrix = FastMassSpringCache::SparseMatrix;
+
+    // Free particles in natural order first, to find a fill-reducing order.
+    std::vector<int> natural(n, -1);
+    int nf = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        if (p.inv_mass[i] != 0) natural[i] = nf++;
+    auto assemble = [&](const std::vector<int>& row, bool lower_only) {
+        std::vector<Triplet> t;
+        t.reserve(std::size_t(nf) + 4 * m);
+        const double mass_scale = (1.0 + h * double(b.def.drag)) / (h * h);
+        for (std::size_t i = 0; i < n; ++i)
+            if (row[i] >= 0) t.emplace_back(row[i], row[i], double(p.mass[i]) * mass_scale);
+        for (const Link& l : b.links) {
+            const int ra = row[l.a], rb = row[l.b];
+            const double k = l.stiffness;
+            if (ra >= 0) t.emplace_back(ra, ra, k);
+            if (rb >= 0) t.emplace_back(rb, rb, k);
+            if (ra >= 0 && rb >= 0) {
+                if (!lower_only || ra > rb) t.emplace_back(ra, rb, -k);
+                if (!lower_only || rb > ra) t.emplace_back(rb, ra, -k);
+            }
+        }
+        SparseMatrix a(nf, nf);
+        a.setFromTriplets(t.begin(), t.end());  // sums duplicates
+        return a;
+    };
+
+    c.row.assign(n, -1);
+    if (nf > 0) {
+        // AMD on the full symmetric pattern; Eigen returns the inverse permutation (new -> old).
+        Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> new_to_old;
+        Eigen::AMDOrdering<int> amd;
+        amd(assemble(natural, false), new_to_old);
+        std::vector<int> old_row(std::size_t(nf), 0);  // natural row -> particle
+        for (std::size_t i = 0; i < n; ++i)
+            if (natural[i] >= 0) old_row[std::size_t(natural[i])] = int(i);
+        for (int k = 0; k < nf; ++k) c.row[std::size_t(old_row[std::size_t(new_to_old.indices()[k])])] = k;
+        c.matrix = assemble(c.row, true);
+        c.ldlt.compute(c.matrix);
+        if (c.ldlt.info() != Eigen::Success)
+            throw SoftError("step_fast_mass_spring: the global matrix M/h^2 + L could not be factored (h = " +
+                            std::to_string(h) + ", " + std::to_string(nf) + " free particles)");
+    }
+    c.inertia.setZero(nf, 3);
+    c.rhs.setZero(nf, 3);
+    c.solution.setZero(nf, 3);
+    c.h = h;
+    c.drag = b.def.drag;
+    c.inv_mass = p.inv_mass;
+    c.link_ends.resize(2 * m);
+    c.link_stiffness.resize(m);
+    for (std::size_t j = 0; j < m; ++j) {
+        c.link_ends[2 * j] = b.links[j].a;
+        c.link_ends[2 * j + 1] = b.links[j].b;
+        c.link_stiffness[j] = b.links[j].stiffness;
+    }
+    if (c.dir.size() != m) c.dir.assign(m, Vec3::Zero());
+    if (c.force.size() != n) c.force.assign(n, Vec3::Zero());
+    c.factored = true;
+    ++c.factorizations;
+}
+
+}  // namespace
+
+void step_fast_mass_spring(SoftBody& b, Real h) {
+    if (!(is_finite(h) && h > 0))
+        throw SoftError("step_fast_mass_spring: time step h must be finite and > 0, got " + std::to_string(h));
+    if (!b.fms_cache) b.fms_cache = std::make_unique<FastMassSpringCache>();
+    FastMassSpringCache& c = *b.fms_cache;
+    if (!factorization_is_current(b, c, double(h))) factor(b, c, double(h));
+
+    Particles& p = b.p;
+    const std::size_t n = p.size(), m = b.links.size();
+
+    // Explicit forces that change with the state (pressure), at x_n.
+    const bool pressure = b.def.pressure != 0;
+    if (pressure) {
+        for (Vec3& f : c.force) f.setZero();
+        add_pressure_forces(b, p.x, c.force);
+    }
+
+    // y, the first iterate, and the constant part of the right-hand side: M' y / h² + k x_pinned for every
+    // link from a free particle to a pinned one.
+    const Real keep = Real(1) / (Real(1) + h * b.def.drag);
+    const double mass_scale = (1.0 + double(h) * double(b.def.drag)) / (double(h) * double(h));
+    for (std::size_t i = 0; i < n; ++i) {
+        p.x_prev[i] = p.x[i];
+        const int r = c.row[i];
+        if (r < 0) {
+            p.v[i].setZero();
+            continue;
+        }
+        Vec3 fext = p.f[i];
+        if (pressure) fext += c.force[i];
+        const Vec3 y = p.x[i] + (h * keep) * (p.v[i] + h * (b.gravity + p.inv_mass[i] * fext));
+        p.x[i] += (h * keep) * p.v[i];
+        const double s = double(p.mass[i]) * mass_scale;
+        c.inertia(r, 0) = s * double(y.x());
+        c.inertia(r, 1) = s * double(y.y());
+        c.inertia(r, 2) = s * double(y.z());
+    }
+    for (const Link& l : b.links) {
+        const int ra = c.row[l.a], rb = c.row[l.b];
+        if (ra >= 0 && rb < 0)
+            for (int k = 0; k < 3; ++k) c.inertia(ra, k) += double(l.stiffness) * double(p.x[l.b][k]);
+        if (rb >= 0 && ra < 0)
+            for (int k = 0; k < 3; ++k) c.inertia(rb, k) += double(l.stiffness) * double(p.x[l.a][k]);
+    }
+
+    const int iterations = b.def.iterations;
+    for (int it = 0; it < iterations; ++it) {
+        // Local step: the rest-length vector of each link along its current direction.
+        for (std::size_t j = 0; j < m; ++j) {
+            const Link& l = b.links[j];
+            const Vec3 d = p.x[l.a] - p.x[l.b];
+            const Real len = d.norm();
+            if (len >= kMinLinkLength)
+                c.dir[j] = (l.rest / len) * d;
+            else if (c.dir[j].squaredNorm() == 0)
+                c.dir[j] = Vec3(l.rest, 0, 0);  // no direction yet: any one is optimal
+        }
+        // Global step: (M'/h² + L) x = M' y/h² + J p (+ pinned terms), three coordinates at once.
+        c.rhs = c.inertia;
+        for (std::size_t j = 0; j < m; ++j) {
+            const Link& l = b.links[j];
+            const int ra = c.row[l.a], rb = c.row[l.b];
+            const double k = l.stiffness;
+            const Vec3& d = c.dir[j];
+            for (int a = 0; a < 3; ++a) {
+                const double kp = k * double(d[a]);
+                if (ra >= 0) c.rhs(ra, a) += kp;
+                if (rb >= 0) c.rhs(rb, a) -= kp;
+            }
+        }
+        if (c.rhs.rows() > 0) c.solution = c.ldlt.solve(c.rhs);
+        for (std::size_t i = 0; i < n; ++i) {
+            const int r = c.row[i];
+            if (r >= 0) p.x[i] = Vec3(Real(c.solution(r, 0)), Real(c.solution(r, 1)), Real(c.solution(r, 2)));
+        }
+    }
+
+    const Real inv_h = Real(1) / h;
+    for (std::size_t i = 0; i < n; ++i)
+        if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
+}
+
+}  // namespace sinew

@@ -1,0 +1,263 @@
+// Implicit Euler for mass-spring bodies: one Newton step per frame (Baraff & Witkin 1998), the linear
+// system solved by block-Jacobi preconditioned conjugate gradient, matrix-free over the links (Volino &
+// Magnenat-Thalmann, seed 003 §2.3: the products are accumulated link by link, no matrix is built).
+// THEORY §4.
+//
+// The λ blend (b.def.implicit_lambda, written λ below). We use the one-step "θ-method" form, linearised
+// once at state n:
+//     v_{n+1} = v_n + Δv,   x_{n+1} = x_n + h (v_n + λ Δv),
+//     M Δv = h [ f_n + λ (∂f/∂x Δx + ∂f/∂v Δv) ],   Δx = h (v_n + λ Δv),
+// that is
+//     (M - hλ ∂f/∂v - h²λ² ∂f/∂x) Δv = h (f_n + hλ ∂f/∂x v_n).
+// λ = 1 is Baraff-Witkin's backward Euler step exactly; λ = ½ is the trapezoidal rule, which for linear
+// forces is the implicit midpoint rule (energy-conserving on an undamped spring; the test checks it).
+// Volino & Magnenat-Thalmann (seed 003, eq. 13-15) blend backward Euler into the implicit midpoint step
+// the same way but through the previous step's state (their λ = 0 is backward Euler, 1 the midpoint
+// step), which needs the state n-1 and a special first step; the θ form has the same end points, keeps
+// one state, and is why our λ runs from 1 (backward Euler) down to ½ (midpoint).
+//
+// Jacobians per link j = (a, b), d = x_a - x_b, x̂ = d/|d|, L rest length, β = b.def.isotropic_blend:
+//     ∂f_a/∂x_a = -k [ c (I - x̂x̂ᵀ) + x̂x̂ᵀ ],   c = (1-β)(1 - L/|d|) + β,
+// Baraff-Witkin's exact (anisotropic) block for β = 0 and the isotropic -k I for β = 1 (Volino's linear
+// blend, seed 003 §2.4). A compressed link (|d| < L) has c < 0 at β = 0: the exact block is then
+// indefinite and CG can break down, so c is clamped at 0 (a compressed link loses its lateral stiffness
+// term, the common remedy). Volino's blend alone keeps c ≥ 0 down to |d| = (1-β) L.
+//     ∂f_a/∂v_a = -k_d x̂x̂ᵀ   (the damping force's dependence on x is neglected, as Baraff-Witkin do).
+// The drag (v *= 1/(1 + h drag) in every integrator) is the force -drag m v, also implicit here:
+// ∂f/∂v = -drag M, so at λ = 1 a particle without springs gets exactly v_{n+1} = (v_n + h g)/(1 + h drag).
+// External forces and Matyka's pressure are explicit (evaluated at x_n).
+//
+// Pinned particles (inverse mass 0) are removed by Baraff-Witkin's filter S = 0: their rows of the
+// residual, the preconditioner and every product are zero, so Δv stays 0 there and CG runs in the free
+// subspace. Their velocity counts as 0 in Δx (the system has already placed attached particles).
+//
+// CG: block-Jacobi (3x3 diagonal blocks, inverted once per step) preconditioner; warm-started from the
+// previous step's Δv; stops when sqrt(rᵀPr / bᵀPb) <= b.def.cg_tolerance or after b.def.iterations
+// iterations (the cap). The cap is the user's speed/accuracy knob: a capped CG still returns a damped,
+// stable step, but to be a true backward Euler step the cap must let CG reach the tolerance. Measured
+// (Release): a 10x10 hanging cloth needs ~20-60 iterations at h = 1/60, a stiff 32x32 one a few hundred
+// (the condition number grows with h² k/m); tests set the cap high enough and check cg_converged.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "soft/soft_integrators.hpp"
+#include "soft/solver_caches.hpp"
+
+namespace sinew {
+
+void ImplicitEulerCache::resize(std::size_t n, std::size_t m) {
+    if (force.size() != n) {
+        force.assign(n, Vec3::Zero());
+        rhs.assign(n, Vec3::Zero());
+        dv.assign(n, Vec3::Zero());
+        r.assign(n, Vec3::Zero());
+        z.assign(n, Vec3::Zero());
+        d.assign(n, Vec3::Zero());
+        q.assign(n, Vec3::Zero());
+        block_inv.assign(6 * n, Real(0));
+    }
+    if (link_iso.size() != m) {
+        link_iso.assign(m, Real(0));
+        link_aniso.assign(m, Real(0));
+        link_dir.assign(m, Vec3::Zero());
+    }
+}
+
+namespace {
+
+constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
+
+// y = A u, A = M (1 + hλ drag) + Σ_j S_j (u_a - u_b) scattered to a (+) and b (-), rows of pinned
+// particles zeroed (the filter).
+void apply_system(const SoftBody& b, const ImplicitEulerCache& c, Real mass_scale, const std::vector<Vec3>& u,
+                  std::vector<Vec3>& y) {
+    const Particles& p = b.p;
+    const std::size_t n = p.size();
+    for (std::size_t i = 0; i < n; ++i) y[i] = (p.mass[i] * mass_scale) * u[i];
+    const std::size_t m = b.links.size();
+    for (std::size_t j = 0; j < m; ++j) {
+        const Link& l = b.links[j];
+        const Vec3 du = u[l.a] - u[l.b];
+        const Vec3& e = c.link_dir[j];
+        const Vec3 s = c.link_iso[j] * du + (c.link_aniso[j] * e.dot(du)) * e;
+        y[l.a] += s;
+        y[l.b] -= s;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+        if (p.inv_mass[i] == 0) y[i].setZero();
+}
+
+// z = P r with P the stored symmetric inverse block (xx, yy, zz, xy, xz, yz); returns rᵀ z in double.
+inline Vec3 precondition(const Real* B, const Vec3& r) {
+    return Vec3(B[0] * r.x() + B[3] * r.y() + B[4] * r.z(), B[3] * r.x() + B[1] * r.y() + B[5] * r.z(),
+                B[4] * r.x() + B[5] * r.y() + B[2] * r.z());
+}
+
+// Inverts the symmetric 3x3 block in place (adjugate / determinant; the blocks are positive definite:
+// mass plus positive semi-definite link blocks).
+void invert_block(Real* B) {
+    const double xx = B[0], yy = B[1], zz = B[2], xy = B[3], xz = B[4], yz = B[5];
+    const double c00 = yy * zz - yz * yz, c01 = xz * yz - xy * zz, c02 = xy * yz - xz * yy;
+    const double det = xx * c00 + xy * c01 + xz * c02;
+    const double s = 1.0 / det;
+    B[0] = Real(c00 * s);
+    B[1] = Real((xx * zz - xz * xz) * s);
+    B[2] = Real((xx * yy - xy * xy) * s);
+    B[3] = Real(c01 * s);
+    B[4] = Real(c02 * s);
+    B[5] = Real((xy * xz - xx * yz) * s);
+}
+
+inline double dot(const Vec3& a, const Vec3& b) {
+    return double(a.x()) * b.x() + double(a.y()) * b.y() + double(a.z()) * b.z();
+}
+
+}  // namespace
+
+void step_implicit_euler(SoftBody& b, Real h) {
+    if (!(is_finite(h) && h > 0))
+        throw SoftError("step_implicit_euler: time step h must be finite and > 0, got " + std::to_string(h));
+    Particles& p = b.p;
+    const std::size_t n = p.size();
+    const std::size_t m = b.links.size();
+    if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
+    ImplicitEulerCache& c = *b.implicit_cache;
+    c.resize(n, m);
+
+    const Real lambda = b.def.implicit_lambda;
+    const Real blend = b.def.isotropic_blend;
+    const Real hl = h * lambda;        // coefficient of ∂f/∂v in the matrix
+    const Real h2l2 = hl * hl;         // coefficient of ∂f/∂x in the matrix
+    const Real h2l = h * hl;           // coefficient of ∂f/∂x v_n in the right-hand side
+    const Real drag = b.def.drag;
+    const Real mass_scale = Real(1) + hl * drag;
+
+    // Forces of state n without springs, and the diagonal blocks' mass part. rhs first collects
+    // hλ ∂f/∂x v_n (times h below).
+    std::vector<Vec3>& f = c.force;
+    for (std::size_t i = 0; i < n; ++i) {
+        f[i] = p.f[i] + p.mass[i] * (b.gravity - drag * p.v[i]);
+        c.rhs[i].setZero();
+        Real* B = &c.block_inv[6 * i];
+        const Real md = p.mass[i] * mass_scale;
+        B[0] = B[1] = B[2] = md;
+        B[3] = B[4] = B[5] = 0;
+    }
+
+    // One pass over the links: spring force, the link's block S_j, its share of the diagonal blocks, and
+    // of ∂f/∂x v_n (with the velocity of pinned particles taken as 0, see above).
+    for (std::size_t j = 0; j < m; ++j) {
+        const Link& l = b.links[j];
+        const Vec3 va = p.inv_mass[l.a] != 0 ? p.v[l.a] : Vec3::Zero();
+        const Vec3 vb = p.inv_mass[l.b] != 0 ? p.v[l.b] : Vec3::Zero();
+        const Vec3 dvel = va - vb;
+        const Vec3 dx = p.x[l.a] - p.x[l.b];
+        const Real len = dx.norm();
+        Real iso, aniso;
+        Vec3 e;
+        Vec3 kv;  // ∂f_a/∂x_a (v_a - v_b)
+        if (len < kMinLinkLength) {
+            // No direction: no force, isotropic stiffness (Volino's β = 1 for this link).
+            e.setZero();
+            iso = h2l2 * l.stiffness;
+            aniso = 0;
+            kv = -l.stiffness * dvel;
+        } else {
+            e = dx / len;
+            const Real fs = l.stiffness * (len - l.rest) + l.damping * e.dot(p.v[l.a] - p.v[l.b]);
+            const Vec3 fa = -fs * e;
+            f[l.a] += fa;
+            f[l.b] -= fa;
+            const Real cl = std::max(Real(0), (1 - blend) * (1 - l.rest / len) + blend);
+            iso = h2l2 * l.stiffness * cl;
+            aniso = h2l2 * l.stiffness * (1 - cl) + hl * l.damping;
+            kv = -l.stiffness * (cl * dvel + ((1 - cl) * e.dot(dvel)) * e);
+        }
+        c.link_iso[j] = iso;
+        c.link_aniso[j] = aniso;
+        c.link_dir[j] = e;
+        c.rhs[l.a] += kv;
+        c.rhs[l.b] -= kv;
+        const Real sxx = iso + aniso * e.x() * e.x(), syy = iso + aniso * e.y() * e.y(),
+                   szz = iso + aniso * e.z() * e.z();
+        const Real sxy = aniso * e.x() * e.y(), sxz = aniso * e.x() * e.z(), syz = aniso * e.y() * e.z();
+        for (const std::uint32_t i : {l.a, l.b}) {
+            Real* B = &c.block_inv[6 * i];
+            B[0] += sxx;
+            B[1] += syy;
+            B[2] += szz;
+            B[3] += sxy;
+            B[4] += sxz;
+            B[5] += syz;
+        }
+    }
+    if (b.def.pressure != 0) add_pressure_forces(b, p.x, f);
+
+    // Right-hand side h (f_n + hλ ∂f/∂x v_n), the preconditioner, and the filter.
+    double bpb = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        Real* B = &c.block_inv[6 * i];
+        if (p.inv_mass[i] == 0) {
+            c.rhs[i].setZero();
+            c.dv[i].setZero();
+            std::fill(B, B + 6, Real(0));
+            continue;
+        }
+        c.rhs[i] = h * f[i] + h2l * c.rhs[i];
+        invert_block(B);
+        bpb += dot(c.rhs[i], precondition(B, c.rhs[i]));
+    }
+
+    // Preconditioned CG on A Δv = rhs, warm-started from the last step's Δv.
+    int it = 0;
+    double rz = 0;
+    if (bpb > 0) {
+        apply_system(b, c, mass_scale, c.dv, c.q);
+        for (std::size_t i = 0; i < n; ++i) {
+            c.r[i] = c.rhs[i] - c.q[i];
+            c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
+            c.d[i] = c.z[i];
+            rz += dot(c.r[i], c.z[i]);
+        }
+        const double tol2 = double(b.def.cg_tolerance) * double(b.def.cg_tolerance) * bpb;
+        const int cap = b.def.iterations;
+        while (rz > tol2 && it < cap) {
+            apply_system(b, c, mass_scale, c.d, c.q);
+            double dq = 0;
+            for (std::size_t i = 0; i < n; ++i) dq += dot(c.d[i], c.q[i]);
+            if (!(dq > 0)) break;  // lost definiteness (cannot happen with the clamp; a guard for NaN input)
+            const Real alpha = Real(rz / dq);
+            double rz_new = 0;
+            for (std::size_t i = 0; i < n; ++i) {
+                c.dv[i] += alpha * c.d[i];
+                c.r[i] -= alpha * c.q[i];
+                c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
+                rz_new += dot(c.r[i], c.z[i]);
+            }
+            const Real beta = Real(rz_new / rz);
+            for (std::size_t i = 0; i < n; ++i) c.d[i] = c.z[i] + beta * c.d[i];
+            rz = rz_new;
+            ++it;
+        }
+    } else {
+        for (Vec3& v : c.dv) v.setZero();
+    }
+    c.cg_iterations = it;
+    c.cg_residual = bpb > 0 ? Real(std::sqrt(rz / bpb)) : Real(0);
+    c.cg_converged = c.cg_residual <= b.def.cg_tolerance;
+
+    // State n+1.
+    for (std::size_t i = 0; i < n; ++i) {
+        p.x_prev[i] = p.x[i];
+        if (p.inv_mass[i] == 0) {
+            p.v[i].setZero();
+            continue;
+        }
+        p.x[i] += h * (p.v[i] + lambda * c.dv[i]);
+        p.v[i] += c.dv[i];
+    }
+}
+
+}  // namespace sinew

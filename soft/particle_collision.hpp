@@ -1,0 +1,43 @@
+// Particles against rigid shapes, one-way (the shapes are not pushed back): each particle is a sphere of
+// radius `thickness`, projected out of every collider it penetrates (Jakobsen 2003: collisions by
+// projection). The final pass fixes velocities: the normal relative velocity is removed (or reflected by
+// the restitution, as Jakobsen's reflection of the old position) and friction takes up to mu times the
+// normal velocity change from the tangential one (Coulomb, as an impulse per particle). For Verlet bodies the
+// normal velocity change includes the pushes made during relaxation (Jakobsen's friction approximation
+// reads the penetration depth for the same reason).
+#pragma once
+
+#include <vector>
+
+#include "soft/collider.hpp"
+#include "soft/soft_body.hpp"
+
+namespace sinew {
+
+/// Signed distance query of a point against a placed shape: the closest surface point, the outward
+/// normal there and the signed distance (< 0 inside). Returns false when the point is further than
+/// `max_distance` from the shape (nothing else is written then).
+bool point_shape_distance(const Vec3& point, const Shape& shape, const Transform& xf, Real max_distance,
+                          Vec3& surface_point, Vec3& normal, Real& distance);
+
+class ParticleCollision {
+public:
+    /// Picks the colliders whose boxes overlap the body's box swept over the step (once per step).
+    void begin(const SoftBody& b, const std::vector<Collider>& colliders, Real h);
+    bool empty() const { return candidates_.empty(); }
+    /// Pushes penetrating particles out of the candidate colliders (positions only); returns how many.
+    int project_positions(SoftBody& b);
+    /// The last pass: projects positions, corrects velocities (restitution, friction) and appends one
+    /// ParticleContact per touching (particle, collider) to `out`.
+    void finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out);
+
+private:
+    const std::vector<Collider>* colliders_ = nullptr;
+    std::vector<std::uint32_t> candidates_;
+    /// Per particle: how far project_positions() pushed it out this step (m). A position-based method
+    /// (Verlet) absorbs the approach velocity in these pushes; finish() counts them as normal velocity
+    /// change (push / h) so friction and restitution still see the whole contact impulse.
+    std::vector<Real> pushed_;
+};
+
+}  // namespace sinew

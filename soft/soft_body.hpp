@@ -1,0 +1,145 @@
+// Soft bodies made of particles: Jakobsen/Verlet constraint bodies and mass-spring bodies (cloth, ropes,
+// pressure bodies), their definitions, handles and runtime data.
+//
+// One SoftBody holds its particles, its links (springs for mass-spring methods, distance constraints for
+// Verlet), its surface triangles (pressure, rendering), pins, attachments to rigid bodies and long-range
+// attachments. The method decides how links act; the same builder output runs under every method, so
+// methods can be compared on one scene. Equations: ../shared/THEORY.md §3-§4.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "soft/particles.hpp"
+
+namespace sinew {
+
+/// Bad user data given to the soft system (a NaN position, a negative mass, a link to a missing particle,
+/// an unknown handle, ...). The message names the value and where it is.
+struct SoftError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+/// How a body's links act and how its particles are advanced.
+enum class SoftMethod : std::uint8_t {
+    Verlet,             ///< Jakobsen 2003: Verlet integration, links relaxed as distance constraints
+    ExplicitEuler,      ///< springs; x += h v_n, v += h a(x_n, v_n) (unstable undamped at any h)
+    SemiImplicitEuler,  ///< springs; v += h a(x_n, v_n), x += h v_{n+1} (stable iff omega h < 2)
+    ImplicitEuler,      ///< springs; Baraff-Witkin 1998, one Newton step solved by preconditioned CG
+    FastMassSpring,     ///< springs; Liu 2013 local/global with a sparse Cholesky factored once
+    Count
+};
+const char* soft_method_name(SoftMethod m);
+/// Parses "verlet", "explicit", "semi-implicit", "implicit", "fast-ms"; returns false if unknown.
+bool parse_soft_method(const char* text, SoftMethod& out);
+
+/// What a link stands for in a cloth (for stretch statistics and per-kind stiffness).
+enum class LinkKind : std::uint8_t { Structural, Shear, Bend, Other };
+
+/// A spring (mass-spring methods) or a distance constraint (Verlet) between particles a and b.
+struct Link {
+    std::uint32_t a = 0, b = 0;
+    Real rest = 1;            ///< rest length (m), > 0
+    Real stiffness = 1000;    ///< k_s (N/m), mass-spring methods
+    Real damping = 0;         ///< k_d (N s/m) along the link, mass-spring methods
+    // Verlet (Jakobsen) only:
+    Real fraction = 1;        ///< stiffness fraction k in (0, 1] applied per relaxation
+    Real min_length = 0;      ///< inequality constraint: acts only when the length leaves
+    Real max_length = 0;      ///<   [min_length, max_length]; equality when both equal rest
+    std::uint16_t max_iterations = 0;  ///< relax only in the first N iterations (softer); 0 = all
+    LinkKind kind = LinkKind::Structural;
+};
+
+/// Unilateral max-distance constraint of a particle to a pinned particle (Kim, Chentanez, Müller 2012;
+/// seed 004): |x_particle - x_anchor| <= max_length. The cheap cure for stretchy Gauss-Seidel cloth.
+struct LongRangeAttachment {
+    std::uint32_t particle = 0;
+    std::uint32_t anchor = 0;  ///< a pinned particle
+    Real max_length = 0;       ///< m: the rest distance to the anchor (geodesic in the rest mesh)
+};
+
+/// A particle following a point of a rigid body (kinematic: the particle's inverse mass is 0).
+/// `target` is opaque to the soft layer (the world stores a packed rigid BodyId); the layer that owns
+/// the rigid system writes `frame` and `frame_com`/`v`/`w` before each step.
+struct Attachment {
+    std::uint32_t particle = 0;
+    std::uint64_t target = 0;
+    Vec3 local_point = Vec3::Zero();  ///< in the target body's frame
+    Transform frame;                  ///< the target's body frame, written each step
+    Vec3 frame_com = Vec3::Zero();
+    Vec3 frame_v = Vec3::Zero();
+    Vec3 frame_w = Vec3::Zero();
+    bool frame_valid = false;         ///< false once the target is gone: the particle stays where it is
+};
+
+struct SoftBodyDef {
+    SoftMethod method = SoftMethod::Verlet;
+    // geometry (builders in soft/soft_builders.hpp fill these)
+    std::vector<Vec3> positions;            ///< m, world
+    std::vector<Real> masses;               ///< kg per particle (> 0), same size as positions
+    std::vector<Link> links;
+    std::vector<std::uint32_t> triangles;   ///< 3 per triangle, counter-clockwise seen from outside
+    std::vector<std::uint32_t> pinned;      ///< particles fixed in space (inverse mass 0)
+    std::vector<Attachment> attachments;    ///< particles following rigid bodies
+    Vec3 initial_velocity = Vec3::Zero();
+
+    // solver
+    int iterations = 10;        ///< Verlet relaxations, CG iteration cap, fast-ms local/global iterations
+    Real cg_tolerance = Real(1e-4);  ///< implicit: relative residual at which CG stops
+    Real isotropic_blend = 0;   ///< implicit: Volino's blend, 0 = anisotropic spring Jacobian, 1 = isotropic
+    Real implicit_lambda = 1;   ///< implicit: 1 = backward Euler, 0.5 = implicit midpoint (Volino's λ)
+    bool long_range_attachments = false;  ///< add LRA constraints to the pins (any method)
+
+    // material
+    Real drag = 0;              ///< velocity damping (1/s): v *= 1/(1 + h drag); Verlet uses it as k_d = h drag
+    Real pressure = 0;          ///< Matyka's P_c (N m = J), needs a closed triangle surface; 0 = none
+    Real friction = Real(0.5);  ///< particle-collider Coulomb coefficient
+    Real restitution = 0;       ///< [0, 1]
+    Real thickness = Real(0.01);  ///< particle radius for collisions (m), > 0
+    Real gravity_scale = 1;
+    bool allow_sleep = true;
+    std::uint64_t user_data = 0;
+};
+
+/// Generational handle, as BodyId (zero generation = null).
+struct SoftBodyId {
+    std::uint32_t index = 0;
+    std::uint32_t generation = 0;
+    bool is_null() const { return generation == 0; }
+    bool operator==(const SoftBodyId& o) const { return index == o.index && generation == o.generation; }
+    bool operator!=(const SoftBodyId& o) const { return !(*this == o); }
+};
+
+struct ImplicitEulerCache;   // soft/implicit_euler.cpp
+struct FastMassSpringCache;  // soft/fast_mass_spring.cpp
+
+/// A live soft body. Integrators and the soft system work on it directly.
+struct SoftBody {
+    SoftBody();
+    ~SoftBody();
+    SoftBody(SoftBody&&) noexcept;
+    SoftBody& operator=(SoftBody&&) noexcept;
+
+    SoftBodyDef def;            ///< settings as created (geometry vectors emptied after creation)
+    Particles p;
+    std::vector<Link> links;
+    std::vector<std::uint32_t> triangles;
+    std::vector<LongRangeAttachment> lra;
+    std::vector<Attachment> attachments;
+    Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
+    Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
+    bool awake = true;
+    Real sleep_timer = 0;
+    std::unique_ptr<ImplicitEulerCache> implicit_cache;
+    std::unique_ptr<FastMassSpringCache> fms_cache;
+
+    /// Signed volume enclosed by the triangles (divergence theorem), m^3.
+    Real volume() const;
+    /// Largest current/rest length ratio over structural and shear links (1 = unstretched).
+    Real max_stretch() const;
+    Real kinetic_energy() const;
+};
+
+}  // namespace sinew

@@ -1,0 +1,86 @@
+#include "soft/soft_body_validate.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "engine/core/format.hpp"
+#include "soft/soft_integrators.hpp"
+
+namespace sinew {
+namespace {
+
+[[noreturn]] void fail(const std::string& what) { throw SoftError("soft body: " + what); }
+
+std::string at(const char* field, std::size_t i) { return std::string(field) + "[" + std::to_string(i) + "]"; }
+
+void require_finite(Real x, const std::string& name) {
+    if (!std::isfinite(x)) fail(name + " must be finite, got " + to_text(x));
+}
+void require_range(Real x, Real lo, Real hi, const std::string& name) {
+    if (!(x >= lo && x <= hi)) fail(name + " must be in [" + to_text(lo) + ", " + to_text(hi) + "], got " + to_text(x));
+}
+void require_index(std::uint32_t i, std::size_t n, const std::string& name) {
+    if (i >= n) fail(name + " = " + std::to_string(i) + " is out of range (" + std::to_string(n) + " particles)");
+}
+
+}  // namespace
+
+void validate_soft_body_def(const SoftBodyDef& d) {
+    const int method = static_cast<int>(d.method);
+    if (method < 0 || method >= static_cast<int>(SoftMethod::Count))
+        fail("method = " + std::to_string(method) + " is not a soft method");
+    const std::size_t n = d.positions.size();
+    if (n == 0) fail("positions is empty (a soft body needs at least one particle)");
+    if (d.masses.size() != n)
+        fail("masses has " + std::to_string(d.masses.size()) + " entries for " + std::to_string(n) + " positions");
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!is_finite(d.positions[i])) fail(at("positions", i) + " must be finite, got " + to_text(d.positions[i]));
+        if (!(d.masses[i] > 0 && std::isfinite(d.masses[i])))
+            fail(at("masses", i) + " must be > 0 and finite, got " + to_text(d.masses[i]));
+    }
+    for (std::size_t k = 0; k < d.links.size(); ++k) {
+        const Link& l = d.links[k];
+        const std::string name = at("links", k);
+        require_index(l.a, n, name + ".a");
+        require_index(l.b, n, name + ".b");
+        if (l.a == l.b) fail(name + " joins particle " + std::to_string(l.a) + " to itself");
+        if (!(l.rest > 0 && std::isfinite(l.rest))) fail(name + ".rest must be > 0 and finite, got " + to_text(l.rest));
+        require_range(l.stiffness, 0, kRealMax, name + ".stiffness");
+        require_range(l.damping, 0, kRealMax, name + ".damping");
+        if (!(l.fraction > 0 && l.fraction <= 1)) fail(name + ".fraction must be in (0, 1], got " + to_text(l.fraction));
+        require_range(l.min_length, 0, kRealMax, name + ".min_length");
+        if (!(l.max_length >= l.min_length) || !std::isfinite(l.max_length))
+            fail(name + ".max_length must be finite and >= min_length (" + to_text(l.min_length) + "), got " +
+                 to_text(l.max_length));
+    }
+    if (d.triangles.size() % 3 != 0)
+        fail("triangles has " + std::to_string(d.triangles.size()) + " indices, not a multiple of 3");
+    for (std::size_t k = 0; k < d.triangles.size(); ++k) require_index(d.triangles[k], n, at("triangles", k));
+    for (std::size_t k = 0; k < d.pinned.size(); ++k) require_index(d.pinned[k], n, at("pinned", k));
+    for (std::size_t k = 0; k < d.attachments.size(); ++k) {
+        require_index(d.attachments[k].particle, n, at("attachments", k) + ".particle");
+        if (!is_finite(d.attachments[k].local_point))
+            fail(at("attachments", k) + ".local_point must be finite, got " + to_text(d.attachments[k].local_point));
+    }
+    if (!is_finite(d.initial_velocity)) fail("initial_velocity must be finite, got " + to_text(d.initial_velocity));
+    if (d.iterations < 1 || d.iterations > 10000)
+        fail("iterations must be in [1, 10000], got " + std::to_string(d.iterations));
+    if (!(d.cg_tolerance > 0 && d.cg_tolerance < 1)) fail("cg_tolerance must be in (0, 1), got " + to_text(d.cg_tolerance));
+    require_range(d.isotropic_blend, 0, 1, "isotropic_blend");
+    require_range(d.implicit_lambda, Real(0.5), 1, "implicit_lambda");
+    require_range(d.drag, 0, kRealMax, "drag");
+    require_range(d.pressure, 0, kRealMax, "pressure");
+    require_range(d.friction, 0, kRealMax, "friction");
+    require_range(d.restitution, 0, 1, "restitution");
+    if (!(d.thickness > 0 && std::isfinite(d.thickness))) fail("thickness must be > 0 and finite, got " + to_text(d.thickness));
+    require_finite(d.gravity_scale, "gravity_scale");
+    if (d.pressure > 0) {
+        if (d.triangles.empty()) fail("pressure = " + to_text(d.pressure) + " needs a closed triangle surface, got none");
+        const Real v = enclosed_volume(d.triangles, d.positions);
+        if (!(v > 0))
+            fail("pressure = " + to_text(d.pressure) + " needs a closed outward surface; its enclosed volume is " +
+                 to_text(v) + " m^3");
+    }
+}
+
+}  // namespace sinew

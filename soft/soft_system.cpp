@@ -1,0 +1,266 @@
+// The soft-body system: slots and handles, and the per-step loop over bodies.
+#include "soft/soft_system.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "engine/core/format.hpp"
+#include "soft/soft_body_validate.hpp"
+#include "soft/soft_integrators.hpp"
+#include "soft/solver_caches.hpp"
+
+namespace sinew {
+
+SoftSystem::SoftSystem(const SoftSettings& settings) { set_settings(settings); }
+SoftSystem::~SoftSystem() = default;
+
+void SoftSystem::set_settings(const SoftSettings& s) {
+    if (!is_finite(s.gravity)) throw SoftError("soft settings: gravity must be finite, got " + to_text(s.gravity));
+    if (!(s.sleep_velocity >= 0) || !std::isfinite(s.sleep_velocity))
+        throw SoftError("soft settings: sleep_velocity must be >= 0, got " + to_text(s.sleep_velocity));
+    if (!(s.sleep_time > 0) || !std::isfinite(s.sleep_time))
+        throw SoftError("soft settings: sleep_time must be > 0, got " + to_text(s.sleep_time));
+    settings_ = s;
+}
+
+// ---- bodies -------------------------------------------------------------------------------------------
+
+SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
+    validate_soft_body_def(def);
+    SoftBody b;
+    const std::size_t n = def.positions.size();
+    b.p.x.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) b.p.add(def.positions[i], def.masses[i]);
+    for (Vec3& v : b.p.v) v = def.initial_velocity;
+    for (std::uint32_t i : def.pinned) b.p.inv_mass[i] = 0;
+    for (const Attachment& a : def.attachments) b.p.inv_mass[a.particle] = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        if (b.p.inv_mass[i] == 0) b.p.v[i].setZero();
+    b.links = std::move(def.links);
+    b.triangles = std::move(def.triangles);
+    b.attachments = std::move(def.attachments);
+    b.rest_volume = b.triangles.empty() ? Real(0) : std::max(Real(0), enclosed_volume(b.triangles, b.p.x));
+    def.positions.clear();
+    def.positions.shrink_to_fit();
+    def.masses.clear();
+    def.masses.shrink_to_fit();
+    b.def = std::move(def);
+    if (b.def.long_range_attachments) build_long_range_attachments(b);
+
+    std::uint32_t slot;
+    if (!free_slots_.empty()) {
+        slot = free_slots_.back();
+        free_slots_.pop_back();
+        bodies_[slot] = std::move(b);
+        alive_[slot] = true;
+    } else {
+        slot = static_cast<std::uint32_t>(bodies_.size());
+        bodies_.push_back(std::move(b));
+        generation_.push_back(0);
+        alive_.push_back(true);
+    }
+    ++generation_[slot];
+    if (generation_[slot] == 0) generation_[slot] = 1;  // 0 is the null generation
+    ++alive_count_;
+    return {slot, generation_[slot]};
+}
+
+void SoftSystem::check(SoftBodyId id, const char* where) const {
+    if (id.is_null()) throw SoftError(std::string(where) + ": soft body id is null");
+    if (!valid(id))
+        throw SoftError(std::string(where) + ": stale or unknown soft body id (index " + std::to_string(id.index) +
+                        ", generation " + std::to_string(id.generation) + ")");
+}
+
+bool SoftSystem::valid(SoftBodyId id) const {
+    return !id.is_null() && id.index < generation_.size() && alive_[id.index] && generation_[id.index] == id.generation;
+}
+
+void SoftSystem::destroy_body(SoftBodyId id) {
+    check(id, "destroy_body");
+    bodies_[id.index] = SoftBody{};
+    alive_[id.index] = false;
+    free_slots_.push_back(id.index);
+    --alive_count_;
+}
+
+std::vector<SoftBodyId> SoftSystem::bodies() const {
+    std::vector<SoftBodyId> out;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (alive_[s]) out.push_back(id_of_slot(s));
+    return out;
+}
+
+SoftBody& SoftSystem::body(SoftBodyId id) {
+    check(id, "body");
+    return bodies_[id.index];
+}
+const SoftBody& SoftSystem::body(SoftBodyId id) const {
+    check(id, "body");
+    return bodies_[id.index];
+}
+
+void SoftSystem::wake(SoftBodyId id) {
+    check(id, "wake");
+    bodies_[id.index].awake = true;
+    bodies_[id.index].sleep_timer = 0;
+}
+
+bool SoftSystem::awake(SoftBodyId id) const {
+    check(id, "awake");
+    return bodies_[id.index].awake;
+}
+
+namespace {
+void check_particle(const SoftBody& b, std::uint32_t i, const char* where) {
+    if (i >= b.p.size())
+        throw SoftError(std::string(where) + ": particle " + std::to_string(i) + " is out of range (" +
+                        std::to_string(b.p.size()) + " particles)");
+}
+}  // namespace
+
+void SoftSystem::set_particle_position(SoftBodyId id, std::uint32_t i, const Vec3& x) {
+    check(id, "set_particle_position");
+    SoftBody& b = bodies_[id.index];
+    check_particle(b, i, "set_particle_position");
+    if (!is_finite(x)) throw SoftError("set_particle_position: position must be finite, got " + to_text(x));
+    b.p.x[i] = x;
+    b.p.x_prev[i] = x;
+    b.awake = true;
+    b.sleep_timer = 0;
+}
+
+void SoftSystem::apply_particle_force(SoftBodyId id, std::uint32_t i, const Vec3& f) {
+    check(id, "apply_particle_force");
+    SoftBody& b = bodies_[id.index];
+    check_particle(b, i, "apply_particle_force");
+    if (!is_finite(f)) throw SoftError("apply_particle_force: force must be finite, got " + to_text(f));
+    b.p.f[i] += f;
+    b.awake = true;
+    b.sleep_timer = 0;
+}
+
+void SoftSystem::set_pinned(SoftBodyId id, std::uint32_t i, bool pinned) {
+    check(id, "set_pinned");
+    SoftBody& b = bodies_[id.index];
+    check_particle(b, i, "set_pinned");
+    b.p.inv_mass[i] = pinned ? Real(0) : Real(1) / b.p.mass[i];
+    if (pinned) b.p.v[i].setZero();
+    b.awake = true;
+    b.sleep_timer = 0;
+}
+
+std::size_t SoftSystem::particle_count() const {
+    std::size_t n = 0;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (alive_[s]) n += bodies_[s].p.size();
+    return n;
+}
+
+double SoftSystem::kinetic_energy() const {
+    double e = 0;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (alive_[s]) e += bodies_[s].kinetic_energy();
+    return e;
+}
+
+bool SoftSystem::all_finite() const {
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!alive_[s]) continue;
+        for (std::size_t i = 0; i < bodies_[s].p.size(); ++i)
+            if (!is_finite(bodies_[s].p.x[i]) || !is_finite(bodies_[s].p.v[i])) return false;
+    }
+    return true;
+}
+
+Aabb SoftSystem::bounds(std::uint32_t slot) const {
+    const SoftBody& b = bodies_[slot];
+    Aabb box;
+    for (const Vec3& x : b.p.x) box.grow(x);
+    return box.fattened(b.def.thickness);
+}
+
+// ---- stepping -----------------------------------------------------------------------------------------
+
+void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
+    if (stage == Stage::IntegratePositions) integrate_positions(ctx.h);
+}
+
+namespace {
+
+// Attached particles follow their rigid point: placed at the end-of-step position with its velocity.
+// Returns true if any moved (which keeps the body awake).
+bool follow_attachments(SoftBody& b) {
+    bool moved = false;
+    for (const Attachment& a : b.attachments) {
+        if (!a.frame_valid) continue;
+        const Vec3 target = a.frame.apply(a.local_point);
+        const Vec3 v = a.frame_v + a.frame_w.cross(target - a.frame_com);
+        if ((target - b.p.x[a.particle]).squaredNorm() > 0 || v.squaredNorm() > 0) moved = true;
+        b.p.x[a.particle] = target;
+        b.p.v[a.particle] = v;
+    }
+    return moved;
+}
+
+void restore_attachment_velocities(SoftBody& b) {
+    for (const Attachment& a : b.attachments)
+        if (a.frame_valid) b.p.v[a.particle] = a.frame_v + a.frame_w.cross(b.p.x[a.particle] - a.frame_com);
+}
+
+// A sleeping body wakes when something that can touch it moves.
+bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& colliders) {
+    for (const Collider& c : colliders)
+        if ((c.v.squaredNorm() > 0 || c.w.squaredNorm() > 0) && c.box.overlaps(box)) return true;
+    return false;
+}
+
+}  // namespace
+
+void SoftSystem::integrate_positions(Real h) {
+    contacts_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!alive_[s]) continue;
+        SoftBody& b = bodies_[s];
+        b.gravity = settings_.gravity * b.def.gravity_scale;
+        const bool attachments_moved = follow_attachments(b);
+        if (!b.awake) {
+            if (!attachments_moved && !touched_by_moving_collider(bounds(s), colliders_)) continue;
+            b.awake = true;
+            b.sleep_timer = 0;
+        }
+        collision_.begin(b, colliders_, h);
+        ParticleCollision* collision = collision_.empty() ? nullptr : &collision_;
+        switch (b.def.method) {
+            case SoftMethod::Verlet: step_verlet(b, h, collision); break;
+            case SoftMethod::ExplicitEuler: step_explicit_euler(b, h); break;
+            case SoftMethod::SemiImplicitEuler: step_semi_implicit_euler(b, h); break;
+            case SoftMethod::ImplicitEuler: step_implicit_euler(b, h); break;
+            case SoftMethod::FastMassSpring: step_fast_mass_spring(b, h); break;
+            default: break;
+        }
+        if (b.def.method != SoftMethod::Verlet && !b.lra.empty()) apply_long_range_attachments(b);
+        restore_attachment_velocities(b);
+        if (collision) collision_.finish(b, s, h, contacts_);
+        for (Vec3& f : b.p.f) f.setZero();
+        update_sleep(b, h);
+    }
+}
+
+void SoftSystem::update_sleep(SoftBody& b, Real h) {
+    if (!settings_.sleeping || !b.def.allow_sleep) {
+        b.sleep_timer = 0;
+        return;
+    }
+    const Real limit2 = settings_.sleep_velocity * settings_.sleep_velocity;
+    bool slow = true;
+    for (std::size_t i = 0; i < b.p.size() && slow; ++i) slow = b.p.v[i].squaredNorm() <= limit2;
+    b.sleep_timer = slow ? b.sleep_timer + h : Real(0);
+    if (b.sleep_timer >= settings_.sleep_time) {
+        b.awake = false;
+        for (Vec3& v : b.p.v) v.setZero();
+    }
+}
+
+}  // namespace sinew

@@ -1,0 +1,93 @@
+// The soft-body system: soft bodies in slots with generational handles, run as pipeline stages.
+//
+// Stages (one-way coupling: rigid bodies move soft ones, docs/ARCHITECTURE.md):
+//  - IntegrateVelocities: wake/sleep bookkeeping, attached particles follow their rigid points;
+//  - DetectCollisions, SolveVelocities: nothing yet (two-way layers will put soft contacts there);
+//  - IntegratePositions (after the rigid system's, so colliders hold end-of-step poses): each awake body
+//    is advanced by its method, then projected out of the colliders with friction and restitution, and
+//    its contacts recorded; then sleeping.
+#pragma once
+
+#include <vector>
+
+#include "engine/core/pipeline.hpp"
+#include "soft/collider.hpp"
+#include "soft/particle_collision.hpp"
+#include "soft/soft_body.hpp"
+
+namespace sinew {
+
+struct SoftSettings {
+    Vec3 gravity = Vec3(0, Real(-9.81), 0);  ///< m/s^2
+    bool sleeping = true;
+    Real sleep_velocity = Real(0.02);  ///< m/s: a body whose particles all move slower ...
+    Real sleep_time = Real(0.5);       ///< s: ... for this long falls asleep
+};
+
+class SoftSystem final : public System {
+public:
+    explicit SoftSystem(const SoftSettings& settings = {});
+    ~SoftSystem() override;
+    SoftSystem(const SoftSystem&) = delete;
+    SoftSystem& operator=(const SoftSystem&) = delete;
+
+    const char* name() const override { return "soft"; }
+    void run_stage(Stage stage, const StepContext& ctx) override;
+
+    const SoftSettings& settings() const { return settings_; }
+    void set_settings(const SoftSettings& s);  ///< validates (throws SoftError)
+
+    /// Validates def (throws SoftError naming the field and index; nothing is changed) and creates it.
+    SoftBodyId create_body(SoftBodyDef def);
+    void destroy_body(SoftBodyId id);
+    bool valid(SoftBodyId id) const;
+    std::size_t body_count() const { return alive_count_; }
+    std::vector<SoftBodyId> bodies() const;
+    std::size_t slot_count() const { return bodies_.size(); }
+    bool slot_alive(std::uint32_t slot) const { return alive_[slot]; }
+    SoftBodyId id_of_slot(std::uint32_t slot) const { return {slot, generation_[slot]}; }
+
+    SoftBody& body(SoftBodyId id);
+    const SoftBody& body(SoftBodyId id) const;
+    /// Body by slot (no check), for layers that iterate slots.
+    SoftBody& slot_body(std::uint32_t slot) { return bodies_[slot]; }
+    const SoftBody& slot_body(std::uint32_t slot) const { return bodies_[slot]; }
+
+    void wake(SoftBodyId id);
+    bool awake(SoftBodyId id) const;
+    /// Moves particle `i` (and its previous position, so it gains no velocity). Throws SoftError.
+    void set_particle_position(SoftBodyId id, std::uint32_t i, const Vec3& x);
+    /// Adds a force (N) to particle `i` for the next step; wakes the body.
+    void apply_particle_force(SoftBodyId id, std::uint32_t i, const Vec3& f);
+    /// Pins (inverse mass 0) or frees particle `i`.
+    void set_pinned(SoftBodyId id, std::uint32_t i, bool pinned);
+
+    /// The colliders of this step. A coupling layer (or a test) refills it before IntegratePositions.
+    std::vector<Collider>& colliders() { return colliders_; }
+    const std::vector<Collider>& colliders() const { return colliders_; }
+    /// Particle contacts found in the last step, body slot order.
+    const std::vector<ParticleContact>& contacts() const { return contacts_; }
+
+    std::size_t particle_count() const;
+    double kinetic_energy() const;
+    bool all_finite() const;
+    /// World box of a body's particles, fattened by its thickness.
+    Aabb bounds(std::uint32_t slot) const;
+
+private:
+    void check(SoftBodyId id, const char* where) const;
+    void integrate_positions(Real h);
+    void update_sleep(SoftBody& b, Real h);
+
+    SoftSettings settings_;
+    std::vector<SoftBody> bodies_;
+    std::vector<std::uint32_t> generation_;
+    std::vector<bool> alive_;
+    std::vector<std::uint32_t> free_slots_;
+    std::size_t alive_count_ = 0;
+    std::vector<Collider> colliders_;
+    std::vector<ParticleContact> contacts_;
+    ParticleCollision collision_;
+};
+
+}  // namespace sinew

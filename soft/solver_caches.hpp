@@ -1,0 +1,72 @@
+// Per-body scratch of the spring integrators, kept between steps so a step allocates nothing once the
+// body's sizes are known (the vectors are sized on the first step and reused; they are resized again only
+// if particles or links are added). Flat arrays indexed by particle or by link.
+//
+// ImplicitEulerCache doubles as the force scratch of the explicit and semi-implicit Euler steps (SoftBody
+// has no third cache slot, and those steps need only its `force` array).
+#pragma once
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <cstdint>
+#include <vector>
+
+#include "engine/core/math.hpp"
+
+namespace sinew {
+
+/// Baraff-Witkin implicit Euler (soft/implicit_euler.cpp): forces, the right-hand side, the CG vectors and
+/// the per-link system blocks of the current step.
+struct ImplicitEulerCache {
+    std::vector<Vec3> force;  ///< f(x_n, v_n) + external + gravity + pressure (N)
+    std::vector<Vec3> rhs;    ///< h (f_n + h λ ∂f/∂x v_n), zero at pinned particles
+    std::vector<Vec3> dv;     ///< the unknown Δv; kept as the next step's initial guess (warm start)
+    std::vector<Vec3> r, z, d, q;  ///< CG residual, preconditioned residual, search direction, A d
+    /// Link j's block of the system matrix, S_j = iso_j I + aniso_j dir_j dir_jᵀ
+    /// (= -h²λ² ∂f_a/∂x_a - hλ ∂f_a/∂v_a): A u += S_j (u_a - u_b) at a and -S_j (u_a - u_b) at b.
+    std::vector<Real> link_iso, link_aniso;
+    std::vector<Vec3> link_dir;
+    /// Block-Jacobi preconditioner: the inverse of each particle's 3x3 diagonal block, symmetric, stored
+    /// as (xx, yy, zz, xy, xz, yz); all zero for pinned particles (Baraff-Witkin's filter S).
+    std::vector<Real> block_inv;
+
+    // Statistics of the last step (benchmarks and tests read them).
+    int cg_iterations = 0;      ///< CG iterations used
+    Real cg_residual = 0;       ///< final sqrt(rᵀ P r / bᵀ P b) (P the preconditioner)
+    bool cg_converged = false;  ///< reached b.def.cg_tolerance within the b.def.iterations cap
+
+    /// Sizes the arrays for n particles and m links (no-op when they already fit).
+    void resize(std::size_t n, std::size_t m);
+};
+
+/// Liu et al. 2013 fast mass-spring (soft/fast_mass_spring.cpp): the constant global matrix
+/// M'/h² + L (M' = (1 + h drag) M) over the free particles (pinned ones eliminated), its factorization, and what it was
+/// factored for. The rows are in a fill-reducing (AMD) order computed once, applied by the index map
+/// `row`, so solves need no permutation (Eigen's own permutation step allocates a mask per solve).
+struct FastMassSpringCache {
+    using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+    using Ldlt = Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>>;
+    using Rhs = Eigen::Matrix<double, Eigen::Dynamic, 3>;  ///< one column per coordinate
+
+    // What the factorization is valid for: refactored when any of these changes.
+    double h = 0;
+    Real drag = 0;
+    std::vector<Real> inv_mass;   ///< per particle: the pin set (0) and the masses
+    std::vector<std::uint32_t> link_ends;  ///< 2 per link
+    std::vector<Real> link_stiffness;
+
+    std::vector<int> row;         ///< particle -> row of the system, -1 for pinned particles
+    SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle
+    Ldlt ldlt;
+    bool factored = false;
+    int factorizations = 0;       ///< how many times it was (re)factored (tests check the reuse)
+
+    Rhs inertia;                  ///< M' y / h² plus the pinned neighbours' constant terms, per step
+    Rhs rhs;                      ///< inertia + J p, per iteration
+    Rhs solution;                 ///< the global step's positions, per iteration
+    std::vector<Vec3> dir;        ///< p_j = L_j d̂_j per link (kept when a link has zero length)
+    std::vector<Vec3> force;      ///< explicit forces that are not constant in time (pressure), per step
+};
+
+}  // namespace sinew

@@ -1,0 +1,90 @@
+// Jakobsen 2003 ("Advanced Character Physics"): position Verlet with drag, then Gauss-Seidel relaxation of
+// the links as distance constraints, each sweep followed by collision projection and long-range
+// attachments. THEORY §3.
+//
+// Verlet's x_{n+1} = x_n + (1 - k_d)(x_n - x_{n-1}) + a h^2 is written with the velocity field the other
+// integrators share, v_n = (x_n - x_{n-1}) / h, so bodies can switch method, be woken, or get velocities
+// from collisions (ParticleCollision::finish edits v) without a stale x_{n-1}. The velocity of the next
+// step is read back from the positions at the end: v_{n+1} = (x_{n+1} - x_n) / h, which carries the
+// constraint and collision corrections into the momentum, as Verlet does implicitly.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "soft/particle_collision.hpp"
+#include "soft/soft_integrators.hpp"
+
+namespace sinew {
+
+namespace {
+
+// Below this length the direction of a link is undefined; the link is skipped for the sweep (the next
+// sweep, after the neighbours moved, usually separates the particles). 1e-9 m is far below any rest length.
+constexpr Real kMinLinkLength = Real(1e-9);
+
+// One relaxation sweep over the links in order (Gauss-Seidel). THEORY §3:
+//   d = x_b - x_a, s = k (|d| - L)/|d|, x_a += s w_a/(w_a + w_b) d, x_b -= s w_b/(w_a + w_b) d,
+// with L the rest length for an equality link, or the violated bound for an inequality link (which acts
+// only outside [min_length, max_length]: Jakobsen's angle limits).
+void relax_links(SoftBody& b, int iteration) {
+    std::vector<Vec3>& x = b.p.x;
+    const std::vector<Real>& w = b.p.inv_mass;
+    for (const Link& l : b.links) {
+        if (l.max_iterations != 0 && iteration >= int(l.max_iterations)) continue;  // softer link
+        const Real wa = w[l.a], wb = w[l.b];
+        const Real wsum = wa + wb;
+        if (wsum <= 0) continue;  // both ends pinned
+        const Vec3 d = x[l.b] - x[l.a];
+        const Real len = d.norm();
+        if (len < kMinLinkLength) continue;
+        // A link whose bounds were never set (both 0) is an equality constraint at its rest length.
+        Real lo = l.min_length, hi = l.max_length;
+        if (hi <= 0) lo = hi = l.rest;
+        Real target;
+        if (len > hi)
+            target = hi;
+        else if (len < lo)
+            target = lo;
+        else
+            continue;  // inside the allowed range (always false for equality: lo == hi)
+        const Real s = l.fraction * (len - target) / (len * wsum);
+        x[l.a] += (s * wa) * d;
+        x[l.b] -= (s * wb) * d;
+    }
+}
+
+}  // namespace
+
+void step_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
+    if (!(is_finite(h) && h > 0)) throw SoftError("step_verlet: time step h must be finite and > 0, got " + std::to_string(h));
+    Particles& p = b.p;
+    const std::size_t n = p.size();
+
+    // Integration. Jakobsen's damping k_d scales the carried-over displacement: k_d = h * drag (clamped
+    // so a huge drag stops the particle instead of reversing it).
+    const Real keep = Real(1) - std::min(Real(1), h * b.def.drag);
+    const Real h2 = h * h;
+    for (std::size_t i = 0; i < n; ++i) {
+        p.x_prev[i] = p.x[i];
+        const Real w = p.inv_mass[i];
+        if (w == 0) continue;  // pinned, or attached (the system already placed it)
+        p.x[i] += (keep * h) * p.v[i] + h2 * (b.gravity + w * p.f[i]);
+    }
+
+    // Relaxation: links, then collisions, then long-range attachments, every sweep (Jakobsen: satisfying
+    // the constraints one after another and repeating converges to satisfying all of them; the collision
+    // projection inside the loop keeps links from pulling particles back into the colliders).
+    const int iterations = std::max(b.def.iterations, 0);
+    for (int it = 0; it < iterations; ++it) {
+        relax_links(b, it);
+        if (collision != nullptr) collision->project_positions(b);
+        if (!b.lra.empty()) apply_long_range_attachments(b);
+    }
+
+    // Velocity from the positions (Verlet's implicit velocity).
+    const Real inv_h = Real(1) / h;
+    for (std::size_t i = 0; i < n; ++i)
+        p.v[i] = p.inv_mass[i] == 0 ? Vec3::Zero() : Vec3((p.x[i] - p.x_prev[i]) * inv_h);
+}
+
+}  // namespace sinew

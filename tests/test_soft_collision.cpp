@@ -1,0 +1,346 @@
+// Soft bodies against rigid shapes (soft/particle_collision.hpp, soft/soft_system.hpp, the one-way layer
+// coupling/one_way_coupling.hpp): the point-shape distance query against closed forms, no particle left
+// inside a shape, Coulomb friction and restitution against their analytic outcomes, kinematic bodies
+// pushing and carrying particles, sleeping and waking, and validation of bad definitions.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "engine/world/scene.hpp"
+#include "engine/world/world.hpp"
+#include "soft/soft_builders.hpp"
+#include "soft/soft_system.hpp"
+
+using namespace sinew;
+
+namespace {
+
+const std::string kScenes = std::string(SINEW_SOURCE_DIR) + "/demos/scenes/";
+
+Collider make_collider(const Shape& shape, const Transform& xf, Real friction = Real(0.5)) {
+    Collider c;
+    c.shape = &shape;
+    c.xf = xf;
+    c.com = xf.p;
+    c.box = shape.bounds(xf);
+    c.friction = friction;
+    return c;
+}
+
+// One particle as a soft body.
+SoftBodyDef single_particle(const Vec3& x, SoftMethod method) {
+    SoftBodyDef d;
+    d.method = method;
+    d.positions = {x};
+    d.masses = {Real(0.1)};
+    d.thickness = Real(0.01);
+    d.allow_sleep = false;
+    return d;
+}
+
+struct SoftOnly {
+    Pipeline pipeline;
+    SoftSystem soft;
+    explicit SoftOnly(const SoftSettings& s = {}) : soft(s) { pipeline.add_system(&soft); }
+};
+
+Real signed_distance(const Vec3& p, const Shape& s, const Transform& xf) {
+    Vec3 sp, n;
+    Real d = 0;
+    REQUIRE(point_shape_distance(p, s, xf, Real(100), sp, n, d));
+    return d;
+}
+
+}  // namespace
+
+TEST_CASE("point-shape distance matches closed forms for every shape type", "[soft][collision]") {
+    const Transform xf{Vec3(1, 2, 3), Quat(Eigen::AngleAxis<Real>(Real(0.7), Vec3(1, 2, 0.5).normalized()))};
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<Real> u(-2, 2);
+    const Real tol = Real(2e-5);  // float rounding of a few metres through a rotation
+
+    SECTION("sphere") {
+        const Shape s = make_sphere(Real(0.8));
+        for (int k = 0; k < 200; ++k) {
+            const Vec3 q(u(rng), u(rng), u(rng));
+            CHECK(signed_distance(xf.apply(q), s, xf) == Approx(q.norm() - Real(0.8)).margin(tol));
+        }
+    }
+    SECTION("box, and a convex hull of the same box (two independent routines agree)") {
+        const Vec3 he(Real(0.5), Real(0.8), Real(1.1));
+        const Shape box = make_box(he);
+        std::vector<Vec3> corners;
+        for (int i = 0; i < 8; ++i)
+            corners.emplace_back(i & 1 ? he.x() : -he.x(), i & 2 ? he.y() : -he.y(), i & 4 ? he.z() : -he.z());
+        const Shape hull = make_convex_hull(corners);
+        for (int k = 0; k < 300; ++k) {
+            const Vec3 q(u(rng), u(rng), u(rng));
+            // Closed form: outside, the length of the excess over the half extents; inside, minus the
+            // smallest gap to a face.
+            const Vec3 excess = (q.cwiseAbs() - he).cwiseMax(Vec3::Zero());
+            const Real inside_gap = (he - q.cwiseAbs()).minCoeff();
+            const Real expected = excess.squaredNorm() > 0 ? excess.norm() : -inside_gap;
+            CHECK(signed_distance(xf.apply(q), box, xf) == Approx(expected).margin(tol));
+            CHECK(signed_distance(xf.apply(q), hull, xf) == Approx(expected).margin(tol));
+        }
+    }
+    SECTION("capsule") {
+        const Shape s = make_capsule(Real(0.6), Real(0.3));
+        for (int k = 0; k < 200; ++k) {
+            const Vec3 q(u(rng), u(rng), u(rng));
+            const Vec3 c(0, std::clamp(q.y(), Real(-0.6), Real(0.6)), 0);
+            CHECK(signed_distance(xf.apply(q), s, xf) == Approx((q - c).norm() - Real(0.3)).margin(tol));
+        }
+    }
+    SECTION("plane") {
+        const Shape s = make_plane(Vec3(0, 1, 0), Real(0.25));
+        for (int k = 0; k < 50; ++k) {
+            const Vec3 q(u(rng), u(rng), u(rng));
+            CHECK(signed_distance(xf.apply(q), s, xf) == Approx(q.y() - Real(0.25)).margin(tol));
+        }
+    }
+    SECTION("triangle mesh: in front is outside, behind is inside") {
+        const Shape s = make_triangle_mesh({{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}}, {0, 2, 1, 0, 3, 2});
+        CHECK(signed_distance(Vec3(Real(0.2), Real(0.3), Real(0.1)), s, {}) == Approx(0.3).margin(tol));
+        CHECK(signed_distance(Vec3(Real(0.2), Real(-0.05), Real(0.1)), s, {}) == Approx(-0.05).margin(tol));
+        // Beyond the edge: the distance to the edge.
+        CHECK(signed_distance(Vec3(Real(1.3), Real(0.4), 0), s, {}) == Approx(0.5).margin(tol));
+    }
+    SECTION("compound: the nearest child decides") {
+        const Shape s = make_compound({{Transform{Vec3(-1, 0, 0), Quat::Identity()}, make_sphere(Real(0.5))},
+                                       {Transform{Vec3(1, 0, 0), Quat::Identity()}, make_box(Vec3::Constant(Real(0.5)))}});
+        CHECK(signed_distance(Vec3(-1, 1, 0), s, {}) == Approx(0.5).margin(tol));
+        CHECK(signed_distance(Vec3(1, 1, 0), s, {}) == Approx(0.5).margin(tol));
+        CHECK(signed_distance(Vec3(Real(1.1), 0, 0), s, {}) == Approx(-0.4).margin(tol));
+    }
+}
+
+TEST_CASE("cloth-drop: no particle ends a step inside the ground or the sphere", "[soft][collision]") {
+    const SceneDesc scene = parse_scene_file(kScenes + "cloth-drop.json");
+    std::vector<BodyId> ids;
+    auto world = build_world(scene, &ids);
+    const SoftBodyId cloth = world->soft().bodies().at(0);
+    const Real r = world->soft().body(cloth).def.thickness;
+    const Shape& ground = world->rigid().shape(ids[0]);
+    const Shape& ball = world->rigid().shape(ids[1]);
+    const Transform xg = world->rigid().transform(ids[0]), xb = world->rigid().transform(ids[1]);
+    Real worst = kRealMax;
+    int touching = 0;
+    for (int step = 0; step < 240; ++step) {
+        world->step();
+        const Particles& p = world->soft().body(cloth).p;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            const Real d = std::min(signed_distance(p.x[i], ground, xg), signed_distance(p.x[i], ball, xb));
+            worst = std::min(worst, d);
+        }
+        touching = static_cast<int>(world->soft().contacts().size());
+    }
+    INFO("closest approach of a particle centre to a surface: " << worst << " m, thickness " << r);
+    // Every step ends with each particle's centre at least its thickness from every surface, up to float
+    // rounding of the projection (1e-5 m at coordinates of a few metres).
+    CHECK(worst >= r - Real(1e-5));
+    // The cloth rests on the sphere and the ground at the end: many particles in contact.
+    CHECK(touching > 100);
+}
+
+TEST_CASE("particle friction on a slope: sticks below atan(mu), slides with g(sin - mu cos) above", "[soft][collision]") {
+    const Real g = Real(9.81);
+    const Real mu = Real(0.5);  // collider 0.5 and particle 0.5: geometric mean 0.5
+    for (SoftMethod method : {SoftMethod::Verlet, SoftMethod::SemiImplicitEuler}) {
+        for (Real deg : {Real(20), Real(40)}) {
+            DYNAMIC_SECTION(soft_method_name(method) << " at " << deg << " degrees") {
+                const Real th = deg * Real(M_PI / 180);
+                const Vec3 n(-std::sin(th), std::cos(th), 0);  // slope rising towards +x
+                const Shape plane = make_plane(n, 0);
+                SoftOnly s;
+                SoftBodyDef d = single_particle(n * Real(0.01), method);
+                d.friction = mu;
+                const SoftBodyId id = s.soft.create_body(d);
+                s.soft.colliders().push_back(make_collider(plane, {}, mu));
+                const Real h = Real(1) / 240;
+                const Vec3 down_slope = -Vec3(std::cos(th), std::sin(th), 0);  // the surface y = x tan(th) falls towards -x
+                const Vec3 x0 = s.soft.body(id).p.x[0];
+                const int steps = 480;  // 2 s
+                for (int k = 0; k < steps; ++k) s.pipeline.step(h);
+                const Vec3 x = s.soft.body(id).p.x[0];
+                const Real travelled = (x - x0).dot(down_slope);
+                const Real off_plane = x.dot(n);
+                CHECK(off_plane == Approx(0.01).margin(1e-4));  // stays on the plane at its thickness
+                if (deg < 26.5) {  // atan(0.5) = 26.57 degrees: static friction holds
+                    CHECK(std::abs(travelled) < 1e-3);
+                } else {
+                    // a = g (sin - mu cos); distance after t: a t^2 / 2. 2% as issue 3's rigid ramp: the
+                    // integrators are first order, and at h = 1/240 the O(h) error is 0.4% of 2 s.
+                    const Real a = g * (std::sin(th) - mu * std::cos(th));
+                    const Real t = steps * h;
+                    CHECK(travelled == Approx(Real(0.5) * a * t * t).epsilon(0.02));
+                }
+            }
+        }
+    }
+}
+
+TEST_CASE("restitution: a particle rebounds to e^2 of its drop height; e = 0 does not bounce", "[soft][collision]") {
+    for (SoftMethod method : {SoftMethod::Verlet, SoftMethod::SemiImplicitEuler}) {
+        for (Real e : {Real(0), Real(0.6)}) {
+            DYNAMIC_SECTION(soft_method_name(method) << ", e = " << e) {
+                const Shape ground = make_plane(Vec3::UnitY(), 0);
+                SoftOnly s;
+                const Real H = 1;
+                SoftBodyDef d = single_particle(Vec3(0, H + Real(0.01), 0), method);
+                d.restitution = e;
+                const SoftBodyId id = s.soft.create_body(d);
+                s.soft.colliders().push_back(make_collider(ground, {}));
+                const Real h = Real(1) / 240;
+                bool landed = false;
+                Real apex = 0;
+                for (int k = 0; k < 600; ++k) {
+                    s.pipeline.step(h);
+                    const Particles& p = s.soft.body(id).p;
+                    if (!landed && !s.soft.contacts().empty()) landed = true;
+                    if (landed) apex = std::max(apex, p.x[0].y() - Real(0.01));
+                }
+                REQUIRE(landed);
+                if (e == 0) {
+                    CHECK(apex < 1e-3);  // stays on the plane
+                } else {
+                    // Rebound height e^2 H; 5%: the contact is detected up to one step late, which at
+                    // h = 1/240 and 4.4 m/s shifts the energy by about 2 h v / H ~ 4%.
+                    CHECK(apex == Approx(e * e * H).epsilon(0.05));
+                }
+            }
+        }
+    }
+}
+
+TEST_CASE("one-way coupling: a kinematic box pushes particles; attached particles follow their body", "[soft][collision]") {
+    WorldSettings ws;
+    ws.rigid.gravity = Vec3::Zero();
+    World world(ws);
+    BodyDef pusher;
+    pusher.type = BodyType::Kinematic;
+    pusher.shape = make_box(Vec3::Constant(Real(0.5)));
+    pusher.pose.p = Vec3(-1, 0, 0);
+    pusher.linear_velocity = Vec3(1, 0, 0);
+    const BodyId box = world.rigid().create_body(pusher);
+    // A rope lying across the box's path along z.
+    SoftBodyDef rope_base;
+    rope_base.allow_sleep = false;
+    const SoftBodyId rope = world.soft().create_body(
+        make_rope(Vec3(0, 0, -Real(0.3)), Vec3(0, 0, Real(0.3)), 6, Real(0.1), LinkMaterial{}, rope_base));
+    for (int k = 0; k < 120; ++k) world.step();  // 2 s: the box front moves from -0.5 to 1.5
+    const Transform xf = world.rigid().transform(box);
+    const Particles& p = world.soft().body(rope).p;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        INFO("particle " << i);
+        // Carried in front of the box at its speed (no gravity, no friction needed: it is pushed).
+        CHECK(p.x[i].x() >= xf.p.x() + Real(0.5));
+        CHECK(p.v[i].x() == Approx(1).margin(0.05));
+    }
+
+    // Attachment: a particle follows a point of a spinning kinematic body exactly.
+    BodyDef arm;
+    arm.type = BodyType::Kinematic;
+    arm.shape = make_box(Vec3(1, Real(0.1), Real(0.1)));
+    arm.pose.p = Vec3(0, 5, 0);
+    arm.angular_velocity = Vec3(0, 0, 2);
+    const BodyId arm_id = world.rigid().create_body(arm);
+    SoftBodyDef hang = make_rope(Vec3(1, 5, 0), Vec3(1, 4, 0), 5, Real(0.1), LinkMaterial{}, rope_base);
+    Attachment a;
+    a.particle = 0;
+    a.target = pack_body_id(arm_id);
+    a.local_point = Vec3(1, 0, 0);
+    hang.attachments.push_back(a);
+    const SoftBodyId hanging = world.soft().create_body(hang);
+    for (int k = 0; k < 45; ++k) {
+        world.step();
+        const Vec3 expected = world.rigid().transform(arm_id).apply(Vec3(1, 0, 0));
+        CHECK((world.soft().body(hanging).p.x[0] - expected).norm() < 1e-5);
+    }
+    // Once the body is gone the particle stays where it was; nothing dangles on a stale id.
+    const Vec3 last = world.soft().body(hanging).p.x[0];
+    world.rigid().destroy_body(arm_id);
+    for (int k = 0; k < 10; ++k) world.step();
+    CHECK((world.soft().body(hanging).p.x[0] - last).norm() < 1e-6);
+}
+
+TEST_CASE("a soft body at rest falls asleep; a box dropped on it wakes it", "[soft][sleep]") {
+    World world;
+    BodyDef ground;
+    ground.type = BodyType::Static;
+    ground.shape = make_box(Vec3(5, Real(0.5), 5));
+    ground.pose.p = Vec3(0, Real(-0.5), 0);
+    world.rigid().create_body(ground);
+    ClothGridDesc c;
+    c.nx = c.ny = 12;
+    c.origin = Vec3(-1, Real(0.02), -1);
+    c.edge_u = Vec3(2, 0, 0);
+    c.edge_v = Vec3(0, 0, 2);
+    const SoftBodyId cloth = world.soft().create_body(make_cloth_grid(c));
+    int slept_at = -1;
+    for (int k = 0; k < 240 && slept_at < 0; ++k) {
+        world.step();
+        if (!world.soft().awake(cloth)) slept_at = k;
+    }
+    INFO("fell asleep at step " << slept_at);
+    REQUIRE(slept_at >= 0);
+    REQUIRE(slept_at < 120);  // a flat cloth on the ground is still within sleep_time (0.5 s) + settling
+    BodyDef crate;
+    crate.shape = make_box(Vec3::Constant(Real(0.2)));
+    crate.pose.p = Vec3(0, 1, 0);
+    world.rigid().create_body(crate);
+    bool woke = false;
+    for (int k = 0; k < 60 && !woke; ++k) {
+        world.step();
+        woke = world.soft().awake(cloth);
+    }
+    CHECK(woke);
+}
+
+TEST_CASE("bad soft body definitions are rejected by name and leave the system unchanged", "[soft][errors]") {
+    SoftSystem soft;
+    const SoftBodyId keep = soft.create_body(single_particle(Vec3::Zero(), SoftMethod::Verlet));
+    auto expect_error = [&](SoftBodyDef d, const std::string& fragment) {
+        INFO("expected an error containing: " << fragment);
+        try {
+            soft.create_body(std::move(d));
+            FAIL("accepted");
+        } catch (const SoftError& e) {
+            CHECK_THAT(e.what(), Catch::Contains(fragment));
+        }
+        CHECK(soft.body_count() == 1);
+        CHECK(soft.valid(keep));
+    };
+    const Real nan = std::numeric_limits<Real>::quiet_NaN();
+    SoftBodyDef d = single_particle(Vec3::Zero(), SoftMethod::Verlet);
+    d.positions.push_back(Vec3(1, 0, 0));
+    d.masses.push_back(Real(0.1));
+    d.links.push_back({0, 1, 1});
+
+    { auto b = d; b.positions[1].y() = nan; expect_error(b, "positions[1] must be finite"); }
+    { auto b = d; b.masses[0] = -1; expect_error(b, "masses[0] must be > 0"); }
+    { auto b = d; b.masses.pop_back(); expect_error(b, "masses has 1 entries for 2 positions"); }
+    { auto b = d; b.links[0].b = 7; expect_error(b, "links[0].b = 7 is out of range (2 particles)"); }
+    { auto b = d; b.links[0].b = 0; expect_error(b, "links[0] joins particle 0 to itself"); }
+    { auto b = d; b.links[0].rest = 0; expect_error(b, "links[0].rest must be > 0"); }
+    { auto b = d; b.pinned = {2}; expect_error(b, "pinned[0] = 2 is out of range"); }
+    { auto b = d; b.triangles = {0, 1}; expect_error(b, "not a multiple of 3"); }
+    { auto b = d; b.thickness = 0; expect_error(b, "thickness must be > 0"); }
+    { auto b = d; b.restitution = 2; expect_error(b, "restitution must be in [0, 1]"); }
+    { auto b = d; b.pressure = 5; expect_error(b, "needs a closed triangle surface"); }
+    { auto b = d; b.method = static_cast<SoftMethod>(42); expect_error(b, "method = 42 is not a soft method"); }
+    { auto b = d; b.positions.clear(); b.masses.clear(); b.links.clear(); expect_error(b, "positions is empty"); }
+
+    // Stale handles.
+    const SoftBodyId gone = soft.create_body(d);
+    soft.destroy_body(gone);
+    CHECK_FALSE(soft.valid(gone));
+    CHECK_THROWS_WITH(soft.body(gone), Catch::Contains("stale or unknown soft body id"));
+    CHECK_THROWS_WITH(soft.apply_particle_force(keep, 5, Vec3::Zero()), Catch::Contains("particle 5 is out of range"));
+    CHECK_THROWS_WITH(soft.apply_particle_force(keep, 0, Vec3(nan, 0, 0)), Catch::Contains("force must be finite"));
+    const SoftBodyId reused = soft.create_body(d);
+    CHECK(reused.index == gone.index);
+    CHECK(reused.generation != gone.generation);
+}
