@@ -14,6 +14,7 @@
 #include "engine/core/manifold.hpp"
 #include "engine/core/narrowphase.hpp"
 #include "engine/core/pipeline.hpp"
+#include "engine/core/ray_cast.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
@@ -91,6 +92,20 @@ public:
     const JointSet& joints() const { return *joints_; }
     /// Joints that broke during the last step (cleared at the start of each step).
     const std::vector<JointId>& broken_joints() const { return broken_joints_; }
+
+    // ---- queries (rigid/rigid_queries.cpp); all bodies count, asleep or not -------------------------
+    struct RayResult {
+        BodyId body;
+        RayHit hit;
+    };
+    /// The closest body the segment from -> to enters. False if none. Throws RigidError for a non-finite
+    /// point.
+    bool ray_cast(const Vec3& from, const Vec3& to, RayResult& out) const;
+    /// Bodies whose shapes' world bounds overlap `box`, in slot order (replaces out's contents).
+    void overlap_aabb(const Aabb& box, std::vector<BodyId>& out) const;
+    /// Bodies whose shapes overlap (or touch) `shape` placed at `xf`, in slot order. The query shape must
+    /// be a sphere, box, capsule, hull or compound (throws RigidError otherwise).
+    void overlap_shape(const Shape& shape, const Transform& xf, std::vector<BodyId>& out) const;
 
     /// Calls f(slot) for every live body whose fattened broad-phase box overlaps `box` (coupling layers
     /// find the rigid shapes near a soft body this way).

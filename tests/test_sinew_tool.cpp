@@ -230,6 +230,39 @@ TEST_CASE("run --record writes a header and one line per frame", "[tool]") {
     }
 }
 
+TEST_CASE("run --record writes soft-body particles: the cloth-drop scene", "[tool][soft]") {
+    const std::string cloth_drop = kSource + "/demos/scenes/cloth-drop.json";
+    const fs::path rec = scratch() / "cloth-drop.jsonl";
+    const Result r = sinew_cmd("run " + quote(cloth_drop) + " --steps 3 --record " + quote(rec.string()));
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    REQUIRE(r.status == 0);
+    const nlohmann::json summary = nlohmann::json::parse(lines_of(r.out).at(0));
+    CHECK(summary["soft_bodies"] == 1);
+    CHECK(summary["particles"] == 32 * 32);
+    CHECK(summary["max_stretch"].get<double>() >= 1.0);
+    const std::vector<std::string> lines = lines_of(slurp(rec));
+    REQUIRE(lines.size() == 1 + 4);
+    const nlohmann::json header = nlohmann::json::parse(lines[0]);
+    REQUIRE(header["particles"].size() == 1);
+    CHECK(header["particles"][0]["name"] == "cloth");
+    CHECK(header["particles"][0]["method"] == "verlet");
+    CHECK(header["particles"][0]["count"] == 32 * 32);
+    CHECK(header["particles"][0]["triangles"].size() == 2 * 31 * 31);
+    // Frame 0 is the cloth as built: node (i, j) at origin + i/31 edge_u + j/31 edge_v, flat at y = 1.5.
+    const nlohmann::json f0 = nlohmann::json::parse(lines[1]);
+    REQUIRE(f0["particles"].size() == 1);
+    REQUIRE(f0["particles"][0].size() == 3 * 32 * 32);
+    const auto& x = f0["particles"][0];
+    CHECK(x[0].get<double>() == Approx(-1.0));
+    CHECK(x[1].get<double>() == Approx(1.5));
+    CHECK(x[3 * 31].get<double>() == Approx(1.0));  // node (31, 0)
+    CHECK(x[3 * (32 * 32 - 1) + 2].get<double>() == Approx(1.0));  // node (31, 31): z = -1 + 2
+    // After 3 steps of free fall every particle is lower (no pins).
+    const nlohmann::json f3 = nlohmann::json::parse(lines[4]);
+    CHECK(f3["particles"][0][1].get<double>() < 1.5);
+}
+
 TEST_CASE("run with an unwritable record file exits 1", "[tool]") {
     const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 1 --record /no/such/dir/rec.jsonl");
     REQUIRE(r.exited);

@@ -4,6 +4,7 @@
 // rebalances with tree rotations.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -28,6 +29,12 @@ public:
     /// Calls f(proxy) for every proxy whose fat box overlaps `box`; f returns false to stop early.
     template <class F>
     void query(const Aabb& box, F&& f) const;
+
+    /// Calls f(proxy, max_fraction) for every proxy whose fat box the segment from + t (to - from),
+    /// t in [0, max_fraction], crosses (slab test per node). f returns the new max_fraction (clip the
+    /// segment to the closest hit so far), 0 to stop, or max_fraction unchanged to go on.
+    template <class F>
+    void ray_query(const Vec3& from, const Vec3& to, F&& f) const;
 
     /// Every overlapping pair of proxies (fat boxes), each once, with a < b by proxy id. Appends to out.
     void all_pairs(std::vector<std::pair<std::int32_t, std::int32_t>>& out) const;
@@ -87,6 +94,48 @@ void DynamicTree::query(const Aabb& box, F&& f) const {
         if (top == 0 && !stack_big.empty()) {
             stack_fixed[top++] = stack_big.back();
             stack_big.pop_back();
+        }
+    }
+}
+
+/// Does the segment from + t d, t in [0, t_max], cross the box? (slab test; inv_d may hold infinities)
+inline bool segment_crosses_box(const Vec3& from, const Vec3& inv_d, Real t_max, const Aabb& box) {
+    Real t0 = 0, t1 = t_max;
+    for (int k = 0; k < 3; ++k) {
+        Real a = (box.lo[k] - from[k]) * inv_d[k];
+        Real b = (box.hi[k] - from[k]) * inv_d[k];
+        if (a > b) std::swap(a, b);
+        if (!(a <= b)) {  // NaN: the ray is parallel and starts on the slab's plane; inside iff within it
+            if (from[k] < box.lo[k] || from[k] > box.hi[k]) return false;
+            continue;
+        }
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+        if (t0 > t1) return false;
+    }
+    return true;
+}
+
+template <class F>
+void DynamicTree::ray_query(const Vec3& from, const Vec3& to, F&& f) const {
+    if (root_ == kNull) return;
+    const Vec3 d = to - from;
+    const Vec3 inv_d(Real(1) / d.x(), Real(1) / d.y(), Real(1) / d.z());
+    Real t_max = 1;
+    std::vector<std::int32_t> stack;
+    stack.reserve(64);
+    stack.push_back(root_);
+    while (!stack.empty()) {
+        const std::int32_t id = stack.back();
+        stack.pop_back();
+        const Node& n = nodes_[id];
+        if (!segment_crosses_box(from, inv_d, t_max, n.box)) continue;
+        if (n.is_leaf()) {
+            t_max = f(id, t_max);
+            if (t_max <= 0) return;
+        } else {
+            stack.push_back(n.child1);
+            stack.push_back(n.child2);
         }
     }
 }
