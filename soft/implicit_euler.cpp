@@ -31,12 +31,18 @@
 // residual, the preconditioner and every product are zero, so Δv stays 0 there and CG runs in the free
 // subspace. Their velocity counts as 0 in Δx (the system has already placed attached particles).
 //
-// CG: block-Jacobi (3x3 diagonal blocks, inverted once per step) preconditioner; warm-started from the
-// previous step's Δv; stops when sqrt(rᵀPr / bᵀPb) <= b.def.cg_tolerance or after b.def.iterations
-// iterations (the cap). The cap is the user's speed/accuracy knob: a capped CG still returns a damped,
-// stable step, but to be a true backward Euler step the cap must let CG reach the tolerance. Measured
-// (Release): a 10x10 hanging cloth needs ~20-60 iterations at h = 1/60, a stiff 32x32 one a few hundred
-// (the condition number grows with h² k/m); tests set the cap high enough and check cg_converged.
+// CG: block-Jacobi (3x3 diagonal blocks, inverted once per step) preconditioner; stops when
+// sqrt(rᵀPr / bᵀPb) <= b.def.cg_tolerance or after b.def.iterations iterations (the cap). The cap is the
+// user's speed/accuracy knob. Started from 0, a capped CG returns the Δv of least A-norm error in its
+// Krylov space and stays stable: a 1 m, 1 kg, 32x32 cloth with k = 1e4 N/m falls and hangs from two
+// corners at h = 1/60 with a cap of 10 (largest stretch after 10 s 1.008, converged CG 1.009).
+// Warm-starting from the previous step's Δv saves a quarter of the iterations when CG converges, but with
+// the cap binding it diverged on that cloth (caps 10-40): the unconverged error is carried from step to
+// step. So CG starts from the previous Δv only if that step converged, and from 0 otherwise. To be a true
+// backward Euler step the cap must let CG reach the tolerance (1e-4); measured (h = 1/60): a 10x10 hanging
+// cloth needs 25 iterations at k = 100 N/m and 43 at 1000; the 32x32 cloth 104 on average (max 135) at
+// k = 1e3 and 152 (max 236) at k = 1e4 (the condition number grows with h² k/m). The tests set the cap
+// high enough and check cg_converged.
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -56,40 +62,44 @@ void ImplicitEulerCache::resize(std::size_t n, std::size_t m) {
         z.assign(n, Vec3::Zero());
         d.assign(n, Vec3::Zero());
         q.assign(n, Vec3::Zero());
+        mass.assign(n, Real(0));
         block_inv.assign(6 * n, Real(0));
+        pinned.clear();
+        pinned.reserve(n);
     }
-    if (link_iso.size() != m) {
-        link_iso.assign(m, Real(0));
-        link_aniso.assign(m, Real(0));
-        link_dir.assign(m, Vec3::Zero());
-    }
+    if (links.size() != m) links.assign(m, LinkBlock{});
 }
 
 namespace {
 
 constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
 
-// y = A u, A = M (1 + hλ drag) + Σ_j S_j (u_a - u_b) scattered to a (+) and b (-), rows of pinned
-// particles zeroed (the filter).
-void apply_system(const SoftBody& b, const ImplicitEulerCache& c, Real mass_scale, const std::vector<Vec3>& u,
-                  std::vector<Vec3>& y) {
-    const Particles& p = b.p;
-    const std::size_t n = p.size();
-    for (std::size_t i = 0; i < n; ++i) y[i] = (p.mass[i] * mass_scale) * u[i];
-    const std::size_t m = b.links.size();
-    for (std::size_t j = 0; j < m; ++j) {
-        const Link& l = b.links[j];
-        const Vec3 du = u[l.a] - u[l.b];
-        const Vec3& e = c.link_dir[j];
-        const Vec3 s = c.link_iso[j] * du + (c.link_aniso[j] * e.dot(du)) * e;
-        y[l.a] += s;
-        y[l.b] -= s;
+// Per-particle products in Real, summed over particles in double: the long sums are what lose precision.
+inline double dot(const Vec3& a, const Vec3& b) { return double(a.dot(b)); }
+
+// One CG product, fused with the search direction update: d = z + β d, then q = A d with
+// A = M (1 + hλ drag) + Σ_j S_j (d_a - d_b) scattered to a (+) and b (-), and the rows of pinned particles
+// zeroed (the filter). Returns dᵀ A d. Pinned entries of z are 0, so d stays 0 there.
+double direction_and_product(ImplicitEulerCache& c, Real beta) {
+    const std::size_t n = c.d.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 di = c.z[i] + beta * c.d[i];
+        c.d[i] = di;
+        c.q[i] = c.mass[i] * di;
     }
-    for (std::size_t i = 0; i < n; ++i)
-        if (p.inv_mass[i] == 0) y[i].setZero();
+    for (const ImplicitEulerCache::LinkBlock& l : c.links) {
+        const Vec3 du = c.d[l.a] - c.d[l.b];
+        const Vec3 s = l.iso * du + (l.aniso * l.dir.dot(du)) * l.dir;
+        c.q[l.a] += s;
+        c.q[l.b] -= s;
+    }
+    for (const std::uint32_t i : c.pinned) c.q[i].setZero();
+    double dad = 0;  // over particles rather than links: there are ~4x fewer
+    for (std::size_t i = 0; i < n; ++i) dad += dot(c.d[i], c.q[i]);
+    return dad;
 }
 
-// z = P r with P the stored symmetric inverse block (xx, yy, zz, xy, xz, yz); returns rᵀ z in double.
+// z = P r with P the stored symmetric inverse block (xx, yy, zz, xy, xz, yz).
 inline Vec3 precondition(const Real* B, const Vec3& r) {
     return Vec3(B[0] * r.x() + B[3] * r.y() + B[4] * r.z(), B[3] * r.x() + B[1] * r.y() + B[5] * r.z(),
                 B[4] * r.x() + B[5] * r.y() + B[2] * r.z());
@@ -108,10 +118,6 @@ void invert_block(Real* B) {
     B[3] = Real(c01 * s);
     B[4] = Real(c02 * s);
     B[5] = Real((xy * xz - xx * yz) * s);
-}
-
-inline double dot(const Vec3& a, const Vec3& b) {
-    return double(a.x()) * b.x() + double(a.y()) * b.y() + double(a.z()) * b.z();
 }
 
 }  // namespace
@@ -137,13 +143,16 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // Forces of state n without springs, and the diagonal blocks' mass part. rhs first collects
     // hλ ∂f/∂x v_n (times h below).
     std::vector<Vec3>& f = c.force;
+    c.pinned.clear();
     for (std::size_t i = 0; i < n; ++i) {
         f[i] = p.f[i] + p.mass[i] * (b.gravity - drag * p.v[i]);
         c.rhs[i].setZero();
         Real* B = &c.block_inv[6 * i];
         const Real md = p.mass[i] * mass_scale;
+        c.mass[i] = md;
         B[0] = B[1] = B[2] = md;
         B[3] = B[4] = B[5] = 0;
+        if (p.inv_mass[i] == 0) c.pinned.push_back(std::uint32_t(i));  // capacity n: no allocation
     }
 
     // One pass over the links: spring force, the link's block S_j, its share of the diagonal blocks, and
@@ -175,9 +184,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
             aniso = h2l2 * l.stiffness * (1 - cl) + hl * l.damping;
             kv = -l.stiffness * (cl * dvel + ((1 - cl) * e.dot(dvel)) * e);
         }
-        c.link_iso[j] = iso;
-        c.link_aniso[j] = aniso;
-        c.link_dir[j] = e;
+        c.links[j] = ImplicitEulerCache::LinkBlock{l.a, l.b, iso, aniso, e};
         c.rhs[l.a] += kv;
         c.rhs[l.b] -= kv;
         const Real sxx = iso + aniso * e.x() * e.x(), syy = iso + aniso * e.y() * e.y(),
@@ -201,7 +208,6 @@ void step_implicit_euler(SoftBody& b, Real h) {
         Real* B = &c.block_inv[6 * i];
         if (p.inv_mass[i] == 0) {
             c.rhs[i].setZero();
-            c.dv[i].setZero();
             std::fill(B, B + 6, Real(0));
             continue;
         }
@@ -210,25 +216,30 @@ void step_implicit_euler(SoftBody& b, Real h) {
         bpb += dot(c.rhs[i], precondition(B, c.rhs[i]));
     }
 
-    // Preconditioned CG on A Δv = rhs, warm-started from the last step's Δv.
+    // Preconditioned CG on A Δv = rhs, from the last step's Δv if that one converged, else from 0.
     int it = 0;
     double rz = 0;
     if (bpb > 0) {
-        apply_system(b, c, mass_scale, c.dv, c.q);
+        const bool warm = c.cg_converged;
+        if (warm) {  // q = A dv0 by the fused product with z = dv0, β = 0
+            for (std::uint32_t i : c.pinned) c.dv[i].setZero();
+            c.z = c.dv;
+            direction_and_product(c, 0);
+        }
         for (std::size_t i = 0; i < n; ++i) {
-            c.r[i] = c.rhs[i] - c.q[i];
+            if (!warm) c.dv[i].setZero();
+            c.d[i].setZero();
+            c.r[i] = warm ? Vec3(c.rhs[i] - c.q[i]) : c.rhs[i];
             c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
-            c.d[i] = c.z[i];
             rz += dot(c.r[i], c.z[i]);
         }
         const double tol2 = double(b.def.cg_tolerance) * double(b.def.cg_tolerance) * bpb;
         const int cap = b.def.iterations;
+        Real beta = 0;
         while (rz > tol2 && it < cap) {
-            apply_system(b, c, mass_scale, c.d, c.q);
-            double dq = 0;
-            for (std::size_t i = 0; i < n; ++i) dq += dot(c.d[i], c.q[i]);
-            if (!(dq > 0)) break;  // lost definiteness (cannot happen with the clamp; a guard for NaN input)
-            const Real alpha = Real(rz / dq);
+            const double dad = direction_and_product(c, beta);
+            if (!(dad > 0)) break;  // lost definiteness (cannot happen with the clamp; a guard for NaN input)
+            const Real alpha = Real(rz / dad);
             double rz_new = 0;
             for (std::size_t i = 0; i < n; ++i) {
                 c.dv[i] += alpha * c.d[i];
@@ -236,8 +247,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
                 c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
                 rz_new += dot(c.r[i], c.z[i]);
             }
-            const Real beta = Real(rz_new / rz);
-            for (std::size_t i = 0; i < n; ++i) c.d[i] = c.z[i] + beta * c.d[i];
+            beta = Real(rz_new / rz);
             rz = rz_new;
             ++it;
         }

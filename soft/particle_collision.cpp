@@ -27,6 +27,7 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     colliders_ = &colliders;
     candidates_.clear();
     pushed_.assign(b.p.size(), Real(0));
+    correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
     // Box of where the particles may be at the end of the step: current positions, padded by the
     // furthest a particle moves in one step (speed and gravity) and by the thickness.
@@ -38,12 +39,13 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
         if (colliders[c].box.overlaps(box)) candidates_.push_back(static_cast<std::uint32_t>(c));
 }
 
-int ParticleCollision::project_positions(SoftBody& b) {
+int ParticleCollision::project_positions(SoftBody& b, Real h) {
     int moved = 0;
     const Real r = b.def.thickness;
     for (std::uint32_t c : candidates_) {
         const Collider& col = (*colliders_)[c];
         const Aabb reach = col.box.fattened(r);
+        const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
         for (std::size_t i = 0; i < b.p.size(); ++i) {
             if (b.p.inv_mass[i] == 0) continue;
             Vec3& x = b.p.x[i];
@@ -52,11 +54,18 @@ int ParticleCollision::project_positions(SoftBody& b) {
                 continue;
             Vec3 s, n;
             Real d;
-            if (point_shape_distance(x, *col.shape, col.xf, r, s, n, d) && d < r) {
-                x += (r - d) * n;
-                pushed_[i] += r - d;
-                ++moved;
-            }
+            if (!point_shape_distance(x, *col.shape, col.xf, r, s, n, d) || d >= r) continue;
+            const Real push = r - d;
+            Vec3 dx = push * n;
+            // Friction: the particle's tangential motion this step relative to the surface point.
+            const Vec3 moved_by = x + dx - b.p.x_prev[i] - h * col.point_velocity(s);
+            const Vec3 tangential = moved_by - moved_by.dot(n) * n;
+            const Real t_len = tangential.norm();
+            if (t_len > 0) dx -= std::min(Real(1), mu * push / t_len) * tangential;
+            x += dx;
+            pushed_[i] += push;
+            correction_[i] += dx;
+            ++moved;
         }
     }
     return moved;
@@ -86,6 +95,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             const Vec3 vrel = v - vs;
             const Real vn = vrel.dot(n);
             const Real pushed_speed = pushed_[i] / h;  // approach already removed by relaxation pushes
+            const bool position_friction = b.def.method == SoftMethod::Verlet;  // done in project_positions
             if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
             Vec3 dv = Vec3::Zero();
             const Real removed = std::max(Real(0), -vn);  // approach this pass removes
@@ -97,7 +107,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             // Coulomb friction: the tangential velocity change is at most mu times the normal one.
             const Vec3 vt = vrel - vn * n;
             const Real vt_len = vt.norm();
-            if (vt_len > 0) {
+            if (vt_len > 0 && !position_friction) {
                 const Vec3 dvt = -std::min(Real(1), mu * (removed + pushed_speed) / vt_len) * vt;
                 dv += dvt;
                 // The step already moved the particle with its pre-friction velocity: take back the
@@ -113,7 +123,9 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             pc.normal = n;
             pc.point = s;
             pc.depth = std::max(Real(0), depth);
-            pc.impulse = b.p.mass[i] * dv;
+            // What the contact did to the particle this step: this pass's velocity change and the
+            // position corrections of the relaxation (as a velocity change over h).
+            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
             out.push_back(pc);
         }
     }

@@ -2,9 +2,9 @@
 // radius `thickness`, projected out of every collider it penetrates (Jakobsen 2003: collisions by
 // projection). The final pass fixes velocities: the normal relative velocity is removed (or reflected by
 // the restitution, as Jakobsen's reflection of the old position) and friction takes up to mu times the
-// normal velocity change from the tangential one (Coulomb, as an impulse per particle). For Verlet bodies the
-// normal velocity change includes the pushes made during relaxation (Jakobsen's friction approximation
-// reads the penetration depth for the same reason).
+// normal velocity change from the tangential one (Coulomb, as an impulse per particle). Verlet bodies get
+// their friction at the position level inside the relaxation (project_positions), as Jakobsen's friction
+// approximation reads the penetration depth; finish() then only handles restitution for them.
 #pragma once
 
 #include <vector>
@@ -25,8 +25,12 @@ public:
     /// Picks the colliders whose boxes overlap the body's box swept over the step (once per step).
     void begin(const SoftBody& b, const std::vector<Collider>& colliders, Real h);
     bool empty() const { return candidates_.empty(); }
-    /// Pushes penetrating particles out of the candidate colliders (positions only); returns how many.
-    int project_positions(SoftBody& b);
+    /// Pushes penetrating particles out of the candidate colliders and applies Coulomb friction at the
+    /// position level (Müller et al. 2007 / Macklin et al. 2014: the tangential motion over the step,
+    /// relative to the collider, is cancelled up to mu times the push); returns how many it moved. Used by
+    /// position-based methods inside their relaxation, where friction must act before the links are
+    /// solved again (moving particles afterwards would bend a stick box or a ragdoll).
+    int project_positions(SoftBody& b, Real h);
     /// The last pass: projects positions, corrects velocities (restitution, friction) and appends one
     /// ParticleContact per touching (particle, collider) to `out`.
     void finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out);
@@ -34,10 +38,12 @@ public:
 private:
     const std::vector<Collider>* colliders_ = nullptr;
     std::vector<std::uint32_t> candidates_;
-    /// Per particle: how far project_positions() pushed it out this step (m). A position-based method
-    /// (Verlet) absorbs the approach velocity in these pushes; finish() counts them as normal velocity
-    /// change (push / h) so friction and restitution still see the whole contact impulse.
+    /// Per particle: how far project_positions() pushed it out along the normals this step (m), and the
+    /// whole position correction it made (push and friction). A position-based method (Verlet) absorbs
+    /// the approach velocity in these pushes; finish() counts push / h as normal velocity change for
+    /// restitution and reports correction * m / h as part of the contact impulse.
     std::vector<Real> pushed_;
+    std::vector<Vec3> correction_;
 };
 
 }  // namespace sinew

@@ -41,8 +41,9 @@ void step_verlet(SoftBody& b, Real h, ParticleCollision* collision);
 /// Projects particles onto their long-range attachment spheres (unilateral) and removes the outward
 /// velocity component of those it moved.
 void apply_long_range_attachments(SoftBody& b);
-/// Builds b.lra from the pinned particles: for each free particle, the nearest pin by graph distance
-/// along the links, max_length = that rest-length path (Kim et al. 2012 use geodesic distance).
+/// Builds b.lra from the pinned particles: each free particle is tethered to every pin (up to 8 pins;
+/// beyond that to the nearest), max_length = the shortest rest-length path along the links to it
+/// (Kim et al. 2012 use geodesic distance).
 void build_long_range_attachments(SoftBody& b);
 
 }  // namespace sinew

@@ -21,12 +21,19 @@ namespace sinew {
 struct ImplicitEulerCache {
     std::vector<Vec3> force;  ///< f(x_n, v_n) + external + gravity + pressure (N)
     std::vector<Vec3> rhs;    ///< h (f_n + h λ ∂f/∂x v_n), zero at pinned particles
-    std::vector<Vec3> dv;     ///< the unknown Δv; kept as the next step's initial guess (warm start)
+    std::vector<Vec3> dv;     ///< the unknown Δv; the next step starts from it if CG converged
     std::vector<Vec3> r, z, d, q;  ///< CG residual, preconditioned residual, search direction, A d
-    /// Link j's block of the system matrix, S_j = iso_j I + aniso_j dir_j dir_jᵀ
-    /// (= -h²λ² ∂f_a/∂x_a - hλ ∂f_a/∂v_a): A u += S_j (u_a - u_b) at a and -S_j (u_a - u_b) at b.
-    std::vector<Real> link_iso, link_aniso;
-    std::vector<Vec3> link_dir;
+    /// Link j's block of the system matrix, S_j = iso I + aniso dir dirᵀ
+    /// (= -h²λ² ∂f_a/∂x_a - hλ ∂f_a/∂v_a): A u += S_j (u_a - u_b) at a and -S_j (u_a - u_b) at b. The
+    /// ends are copied in so the CG product streams through one compact array.
+    struct LinkBlock {
+        std::uint32_t a = 0, b = 0;
+        Real iso = 0, aniso = 0;
+        Vec3 dir = Vec3::Zero();
+    };
+    std::vector<LinkBlock> links;
+    std::vector<Real> mass;             ///< the system's diagonal mass m (1 + hλ drag) per particle
+    std::vector<std::uint32_t> pinned;  ///< particles with inverse mass 0 this step (their rows are filtered)
     /// Block-Jacobi preconditioner: the inverse of each particle's 3x3 diagonal block, symmetric, stored
     /// as (xx, yy, zz, xy, xz, yz); all zero for pinned particles (Baraff-Witkin's filter S).
     std::vector<Real> block_inv;
@@ -41,13 +48,13 @@ struct ImplicitEulerCache {
 };
 
 /// Liu et al. 2013 fast mass-spring (soft/fast_mass_spring.cpp): the constant global matrix
-/// M'/h² + L (M' = (1 + h drag) M) over the free particles (pinned ones eliminated), its factorization, and what it was
-/// factored for. The rows are in a fill-reducing (AMD) order computed once, applied by the index map
-/// `row`, so solves need no permutation (Eigen's own permutation step allocates a mask per solve).
+/// M'/h² + L (M' = (1 + h drag) M) over the free particles (pinned ones eliminated), its factorization,
+/// and what it was factored for. The rows are in a fill-reducing (AMD) order computed once and applied by
+/// the index map `row`; the solves run on the factor's own arrays (L D Lᵀ, L unit lower), all three
+/// coordinates of a row at once, without Eigen's solve (whose permutation step allocates per solve).
 struct FastMassSpringCache {
     using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
     using Ldlt = Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>>;
-    using Rhs = Eigen::Matrix<double, Eigen::Dynamic, 3>;  ///< one column per coordinate
 
     // What the factorization is valid for: refactored when any of these changes.
     double h = 0;
@@ -58,13 +65,13 @@ struct FastMassSpringCache {
 
     std::vector<int> row;         ///< particle -> row of the system, -1 for pinned particles
     SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle
-    Ldlt ldlt;
+    Ldlt ldlt;                    ///< its factorization L D Lᵀ
+    std::vector<double> inv_d;    ///< 1 / D, per row
     bool factored = false;
     int factorizations = 0;       ///< how many times it was (re)factored (tests check the reuse)
 
-    Rhs inertia;                  ///< M' y / h² plus the pinned neighbours' constant terms, per step
-    Rhs rhs;                      ///< inertia + J p, per iteration
-    Rhs solution;                 ///< the global step's positions, per iteration
+    std::vector<double> inertia;  ///< 3 per row: M' y / h² plus the pinned neighbours' constant terms
+    std::vector<double> rhs;      ///< 3 per row: inertia + J p, solved in place into the positions
     std::vector<Vec3> dir;        ///< p_j = L_j d̂_j per link (kept when a link has zero length)
     std::vector<Vec3> force;      ///< explicit forces that are not constant in time (pressure), per step
 };

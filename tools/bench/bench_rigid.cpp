@@ -13,6 +13,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "tools/bench/bench_cloth.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
 
@@ -162,7 +163,8 @@ bool write_chart(const std::vector<RigidRun>& runs, const std::string& png) {
 
 int cmd_bench(const std::vector<std::string>& args) {
     using tool::UsageError;
-    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? only 'rigid' exists so far");
+    if (!args.empty() && args[0] == "cloth") return cmd_bench_cloth(args);  // tools/bench/bench_cloth.cpp
+    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? 'rigid' or 'cloth'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10;
     std::string chart, markdown, scene_dir = "demos/scenes";
@@ -261,5 +263,18 @@ const Command bench_command = {
     "ms_per_step_median, max_drift (m, largest distance any box moved from its start during the run),\n"
     "stood (max_drift < 0.05 m), collapsed (a box dropped > 0.5 m), finite.\n"
     "--chart draws time against drift (gnuplot); --markdown rewrites the bench-rigid section of a results\n"
-    "file such as docs/RESULTS.md.\n"};
+    "file such as docs/RESULTS.md.\n"
+    "\n"
+    "usage: sinew bench cloth [--scenes a,b,...] [--engines e,e/variant,...] [--steps N]\n"
+    "                         [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall]\n"
+    "\n"
+    "Runs the soft-body scenes (default: cloth-32, cloth-64, cloth-drop, pressure-ball, built in code)\n"
+    "with every Sinew soft method and setting (engines sinew-verlet, sinew-semi-implicit, sinew-implicit,\n"
+    "sinew-fast-ms) and with Bullet's btSoftBody (engine bullet, variant pi10), in this process. One JSON\n"
+    "line per (scene, engine, variant): scene, engine, variant, nodes, links, iterations, stiffness, lra,\n"
+    "steps, ms_per_step_median, max_stretch (largest current/rest length over the links at the last\n"
+    "step), peak_stretch (the same over the whole run), volume_ratio (closed bodies: volume / rest\n"
+    "volume), max_penetration (m, into the sphere or ground at the last step), finite.\n"
+    "--chart draws stretch against time per scene (gnuplot); --markdown rewrites the bench-cloth section.\n"
+    "--clock: per-step time as thread CPU time (default, robust on a busy machine) or wall time.\n"};
 }  // namespace sinew::tool
