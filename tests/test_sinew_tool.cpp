@@ -263,6 +263,54 @@ TEST_CASE("run --record writes soft-body particles: the cloth-drop scene", "[too
     CHECK(f3["particles"][0][1].get<double>() < 1.5);
 }
 
+TEST_CASE("bench rigid and bench cloth print one JSON line per engine, Sinew and Bullet in one run", "[tool][bench]") {
+    const std::string dir = quote(kSource + "/demos/scenes");
+    {
+        const Result r = sinew_cmd("bench rigid --scenes tower-10 --steps 5 --engines sinew-si/soft-step,bullet --scene-dir " + dir);
+        INFO("stdout: " << r.out << "\nstderr: " << r.err);
+        REQUIRE(r.exited);
+        CHECK(r.status == 0);
+        const std::vector<std::string> lines = lines_of(r.out);
+        REQUIRE(lines.size() == 2);
+        const nlohmann::json a = nlohmann::json::parse(lines[0]), b = nlohmann::json::parse(lines[1]);
+        CHECK(a["engine"] == "sinew-si");
+        CHECK(b["engine"] == "bullet");
+        for (const auto* j : {&a, &b}) {
+            CHECK((*j)["scene"] == "tower-10");
+            CHECK((*j)["bodies"] == 10);
+            CHECK((*j)["finite"] == true);
+            CHECK((*j)["ms_per_step_median"].get<double>() >= 0);
+        }
+        // 5 steps of a tower at rest: nothing moves a centimetre (the full 600-step runs are the bench's).
+        CHECK(a["max_drift"].get<double>() < 0.01);
+    }
+    {
+        const Result r = sinew_cmd("bench cloth --scenes cloth-32 --steps 3 --engines sinew-verlet/it10+lra,sinew-fast-ms/k1e4-it1,bullet --scene-dir " + dir);
+        INFO("stdout: " << r.out << "\nstderr: " << r.err);
+        REQUIRE(r.exited);
+        CHECK(r.status == 0);
+        const std::vector<std::string> lines = lines_of(r.out);
+        REQUIRE(lines.size() == 3);
+        const char* engines[] = {"sinew-verlet", "sinew-fast-ms", "bullet"};
+        for (int k = 0; k < 3; ++k) {
+            const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k)]);
+            CHECK(j["scene"] == "cloth-32");
+            CHECK(j["engine"] == engines[k]);
+            CHECK(j["nodes"] == 32 * 32);
+            CHECK(j["finite"] == true);
+            // 3 steps (0.05 s) after release from rest: the links have barely moved from their rest length.
+            CHECK(j["max_stretch"].get<double>() >= 1.0);
+            CHECK(j["max_stretch"].get<double>() < 1.2);
+        }
+    }
+    {
+        const Result r = sinew_cmd("bench cloth --scenes no-such-scene --steps 1 --scene-dir " + dir);
+        REQUIRE(r.exited);
+        CHECK(r.status == 1);
+        CHECK_THAT(r.err, Contains("no-such-scene.json"));
+    }
+}
+
 TEST_CASE("run with an unwritable record file exits 1", "[tool]") {
     const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 1 --record /no/such/dir/rec.jsonl");
     REQUIRE(r.exited);

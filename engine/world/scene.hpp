@@ -54,6 +54,9 @@ struct SceneSoftBody {
     std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box"
     ClothGridDesc cloth;        ///< builder == "cloth": the grid as described
     std::vector<std::uint32_t> cloth_pinned_corners;  ///< builder == "cloth": pinned node indices
+    Vec3 icosphere_center = Vec3::Zero();  ///< builder == "icosphere"
+    Real icosphere_radius = 0;
+    int icosphere_subdivisions = 0;
     LinkMaterial links;         ///< the link material the builder used
     SoftBodyDef def;            ///< geometry, method, solver settings, material
     /// Attachments to scene bodies: def.attachments[k].target is filled in by build_world from

@@ -89,8 +89,11 @@ void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef
         out.def = make_rope(b.get("from").vec3(), b.get("to").vec3(), checked_int(b.get("segments"), 1, 100000),
                             total_mass(b), m, base);
     } else if (builder == "icosphere") {
-        out.def = make_icosphere(b.get("center").vec3(), checked(b.get("radius"), Range::Positive),
-                                 read_int(b, "subdivisions", 2, 0, 6), total_mass(b), m, base);
+        out.icosphere_center = b.get("center").vec3();
+        out.icosphere_radius = checked(b.get("radius"), Range::Positive);
+        out.icosphere_subdivisions = read_int(b, "subdivisions", 2, 0, 6);
+        out.def = make_icosphere(out.icosphere_center, out.icosphere_radius, out.icosphere_subdivisions, total_mass(b),
+                                 m, base);
     } else if (builder == "mesh") {
         const Node obj = b.get("obj");
         std::filesystem::path p(obj.string());

@@ -26,60 +26,67 @@ namespace sinew::bench {
 
 // ---- scenes: one description per scene, read by both engines --------------------------------------
 
-ClothScene scene_cloth_hanging(int n) {
-    // Issue 5: a 2 m x 2 m patch of n x n nodes, hanging from its two corners at (-1, 3, 0) and (1, 3, 0).
-    // It starts horizontal (the far edge at z = 2) and swings down under gravity, the classic pinned-cloth
-    // test: the corner links carry the whole weight plus the swing, which is where iterative solvers stretch.
+ClothScene cloth_scene_from(const SceneDesc& scene) {
+    // The scene file is the one description (demos/scenes/NAME.json); Bullet's and Sinew's bodies are
+    // both built from what it says. The bench varies only the method, iterations and stiffness.
+    auto fail = [&](const std::string& what) {
+        throw SceneError(scene.file, "", "not a cloth benchmark scene: " + what);
+    };
+    if (scene.soft_bodies.size() != 1) fail("it must hold exactly one soft body");
+    const SceneSoftBody& body = scene.soft_bodies[0];
     ClothScene s;
-    s.name = "cloth-" + std::to_string(n);
-    s.kind = ClothSceneKind::HangingCloth;
-    s.n = n;
-    s.corner00 = Vec3(-1, 3, 0);
-    s.corner10 = Vec3(1, 3, 0);
-    s.corner01 = Vec3(-1, 3, 2);
-    s.pin_corners = true;
+    s.name = scene.name;
+    s.h = scene.settings.time_step;
+    s.steps = scene.steps;
+    s.gravity = scene.settings.rigid.gravity;
+    s.friction = body.def.friction;
+    s.thickness = body.def.thickness;
+    s.pressure = body.def.pressure;
+    if (body.builder == "cloth") {
+        const ClothGridDesc& c = body.cloth;
+        if (c.nx != c.ny) fail("the cloth must be square (nodes [n, n])");
+        s.n = c.nx;
+        s.total_mass = c.total_mass;
+        s.corner00 = c.origin;
+        s.corner10 = c.origin + c.edge_u;
+        s.corner01 = c.origin + c.edge_v;
+        const std::vector<std::uint32_t> corners = {cloth_node(c, 0, 0), cloth_node(c, c.nx - 1, 0)};
+        if (!body.cloth_pinned_corners.empty() && body.cloth_pinned_corners != corners)
+            fail("a cloth may pin nothing or exactly nodes [0, 0] and [n-1, 0] (as Bullet's CreatePatch fixeds 1+2)");
+        s.pin_corners = !body.cloth_pinned_corners.empty();
+        s.kind = s.pin_corners ? ClothSceneKind::HangingCloth : ClothSceneKind::ClothDrop;
+    } else if (body.builder == "icosphere") {
+        s.kind = ClothSceneKind::PressureBall;
+        s.ball_centre = body.icosphere_center;
+        s.ball_radius = body.icosphere_radius;
+        s.ball_subdivisions = body.icosphere_subdivisions;
+        Real m = 0;
+        for (Real mi : body.def.masses) m += mi;
+        s.total_mass = m;
+    } else {
+        fail("its soft body must be a cloth or an icosphere, got " + body.builder);
+    }
+    for (const SceneBody& b : scene.bodies) {
+        if (b.def.type != BodyType::Static) fail("only static colliders are supported, \"" + b.name + "\" is not");
+        const Shape& shape = b.def.shape;
+        if (shape.type == ShapeType::Sphere) {
+            if (s.has_sphere) fail("at most one sphere");
+            s.has_sphere = true;
+            s.sphere_centre = b.def.pose.p;
+            s.sphere_radius = shape.radius;
+        } else if (shape.type == ShapeType::Box && b.def.pose.q.isApprox(Quat::Identity())) {
+            if (s.has_ground) fail("at most one ground");
+            s.has_ground = true;
+            s.ground_y = b.def.pose.p.y() + shape.half_extents.y();  // the top face
+        } else {
+            fail("colliders must be a sphere and an axis-aligned ground box, got \"" + b.name + "\"");
+        }
+    }
     return s;
 }
 
-ClothScene scene_cloth_drop() {
-    // A free 32 x 32 cloth, 2 m x 2 m, held flat 0.5 m above a static sphere (radius 0.5 m, top at
-    // y = 1.5) and falling onto it; its corners reach the ground y = 0.
-    ClothScene s;
-    s.name = "cloth-drop";
-    s.kind = ClothSceneKind::ClothDrop;
-    s.n = 32;
-    s.corner00 = Vec3(-1, 2, -1);
-    s.corner10 = Vec3(1, 2, -1);
-    s.corner01 = Vec3(-1, 2, 1);
-    s.has_sphere = true;
-    s.sphere_centre = Vec3(0, 1, 0);
-    s.sphere_radius = Real(0.5);
-    s.has_ground = true;
-    return s;
-}
-
-ClothScene scene_pressure_ball() {
-    // An icosphere of 642 vertices (radius 0.5 m, 1 kg) dropped from 1 m onto the ground. P_c = 50 J gives
-    // an inner pressure P = P_c / V = 95 Pa at rest volume, so the ball carries its 9.81 N weight on a
-    // contact patch of about 0.1 m^2 (visibly flattened, not collapsed); with 1e3-1e4 N/m surface springs
-    // the pressure stretches the surface by 0.2-2 % (tension P r / 2 across springs ~k per metre).
-    ClothScene s;
-    s.name = "pressure-ball";
-    s.kind = ClothSceneKind::PressureBall;
-    s.ball_centre = Vec3(0, Real(1.5), 0);
-    s.ball_radius = Real(0.5);
-    s.ball_subdivisions = 3;
-    s.pressure = 50;
-    s.has_ground = true;
-    return s;
-}
-
-ClothScene cloth_scene(const std::string& name) {
-    if (name == "cloth-32") return scene_cloth_hanging(32);
-    if (name == "cloth-64") return scene_cloth_hanging(64);
-    if (name == "cloth-drop") return scene_cloth_drop();
-    if (name == "pressure-ball") return scene_pressure_ball();
-    throw tool::UsageError("unknown cloth scene '" + name + "' (cloth-32, cloth-64, cloth-drop, pressure-ball)");
+ClothScene cloth_scene(const std::string& name, const std::string& scene_dir) {
+    return cloth_scene_from(parse_scene_file(scene_dir + "/" + name + ".json"));  // SceneError: exit 1
 }
 
 void scene_ball_mesh(const ClothScene& s, std::vector<Vec3>& vertices, std::vector<std::uint32_t>& triangles) {
@@ -420,7 +427,7 @@ int cmd_bench_cloth(const std::vector<std::string>& args) {
     using tool::UsageError;
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1;
-    std::string chart, markdown;
+    std::string chart, markdown, scene_dir = "demos/scenes";
     BenchClock clock = BenchClock::ThreadCpu;
     std::vector<std::string> only;  // engine or engine/variant names; empty = all
     for (std::size_t i = 1; i < args.size(); ++i) {
@@ -431,6 +438,7 @@ int cmd_bench_cloth(const std::vector<std::string>& args) {
         else if (tool::is_option(a, "--chart")) chart = tool::option_value(args, i, "--chart");
         else if (tool::is_option(a, "--markdown")) markdown = tool::option_value(args, i, "--markdown");
         else if (tool::is_option(a, "--engines")) only = split_list(tool::option_value(args, i, "--engines"));
+        else if (tool::is_option(a, "--scene-dir")) scene_dir = tool::option_value(args, i, "--scene-dir");
         else if (tool::is_option(a, "--clock")) {
             const std::string c = tool::option_value(args, i, "--clock");
             if (c == "cpu") clock = BenchClock::ThreadCpu;
@@ -440,7 +448,7 @@ int cmd_bench_cloth(const std::vector<std::string>& args) {
     }
     if (scenes.empty()) throw UsageError("--scenes is empty");
     std::vector<ClothScene> descs;
-    for (const std::string& name : scenes) descs.push_back(cloth_scene(name));  // unknown names fail first
+    for (const std::string& name : scenes) descs.push_back(cloth_scene(name, scene_dir));  // bad files fail first
     auto wanted = [&](const std::string& engine, const std::string& variant) {
         if (only.empty()) return true;
         for (const std::string& o : only)

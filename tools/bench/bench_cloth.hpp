@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "engine/core/math.hpp"
+#include "engine/world/scene.hpp"
 
 namespace sinew::bench {
 
@@ -48,12 +49,12 @@ struct ClothScene {
     Real thickness = Real(0.02);               ///< m: Sinew's particle radius, Bullet's collision margin
 };
 
-/// One function per scene (the single description both engines read).
-ClothScene scene_cloth_hanging(int n);  ///< "cloth-32", "cloth-64"
-ClothScene scene_cloth_drop();          ///< "cloth-drop"
-ClothScene scene_pressure_ball();       ///< "pressure-ball"
-/// The scene named `name`; throws tool::UsageError for an unknown name.
-ClothScene cloth_scene(const std::string& name);
+/// The benchmark description of a scene file (demos/scenes/cloth-32.json, ...): one soft body (a square
+/// cloth, free or pinned at nodes [0,0] and [n-1,0], or an icosphere) and static colliders (a sphere and an
+/// axis-aligned ground box). Throws SceneError for anything else, naming the file.
+ClothScene cloth_scene_from(const SceneDesc& scene);
+/// cloth_scene_from(parse_scene_file(scene_dir/NAME.json)).
+ClothScene cloth_scene(const std::string& name, const std::string& scene_dir);
 
 /// Rest surface of a scene's closed body (PressureBall): vertices and counter-clockwise triangles, from
 /// Sinew's icosphere builder, so Bullet gets the very same mesh.
