@@ -367,3 +367,74 @@ TEST_CASE("pyramid spacing defaults to faces touching for any box size", "[scene
     CHECK(s.bodies[2].def.pose.p == Vec3(0, Real(2.25), 0));
     CHECK(s.name == "inline");
 }
+
+TEST_CASE("soft bodies: every builder, method and setting is read as written", "[scene][soft]") {
+    const SceneDesc s = parse_scene_file(kScenes + "/good/soft-bodies.json");
+    REQUIRE(s.soft_bodies.size() == 6);
+    const SceneSoftBody& flag = s.soft_bodies[0];
+    CHECK(flag.name == "flag");
+    CHECK(flag.json_path == "/soft_bodies/0");
+    CHECK(flag.builder == "cloth");
+    CHECK(flag.def.method == SoftMethod::ImplicitEuler);
+    CHECK(flag.def.positions.size() == 8 * 6);
+    CHECK(flag.cloth.nx == 8);
+    CHECK(flag.cloth.ny == 6);
+    CHECK(flag.def.pinned == std::vector<std::uint32_t>{0, 7});
+    CHECK(flag.links.stretch == Approx(2000));
+    CHECK(flag.links.shear == Approx(1500));
+    CHECK(flag.links.bend == Approx(50));
+    CHECK(flag.def.iterations == 40);
+    CHECK(flag.def.cg_tolerance == Approx(0.001));
+    CHECK(flag.def.isotropic_blend == Approx(0.25));
+    CHECK(flag.def.implicit_lambda == Approx(0.75));
+    CHECK(flag.def.long_range_attachments);
+    CHECK(flag.def.drag == Approx(0.1));
+    CHECK(flag.def.friction == Approx(0.4));
+    CHECK(flag.def.restitution == Approx(0.2));
+    CHECK(flag.def.thickness == Approx(0.015));
+    CHECK(flag.def.initial_velocity.isApprox(Vec3(0, 0, 1)));
+    CHECK(flag.def.gravity_scale == Approx(0.5));
+    CHECK_FALSE(flag.def.allow_sleep);
+    Real mass = 0;
+    for (Real m : flag.def.masses) mass += m;
+    CHECK(mass == Approx(0.5));
+    // Shear links carry the shear stiffness, bend links the bend stiffness.
+    for (const Link& l : flag.def.links) {
+        if (l.kind == LinkKind::Shear) CHECK(l.stiffness == Approx(1500));
+        if (l.kind == LinkKind::Bend) CHECK(l.stiffness == Approx(50));
+    }
+
+    const SceneSoftBody& rope = s.soft_bodies[1];
+    CHECK(rope.def.positions.size() == 11);
+    CHECK(rope.def.links.size() == 10);
+    REQUIRE(rope.def.attachments.size() == 1);
+    CHECK(rope.attachment_bodies == std::vector<std::size_t>{1});
+    CHECK(rope.def.links[0].fraction == Approx(0.8));
+
+    const SceneSoftBody& ball = s.soft_bodies[2];
+    CHECK(ball.def.positions.size() == 42);  // 10 * 4 + 2
+    CHECK(ball.def.pressure == Approx(20));
+    CHECK(ball.icosphere_radius == Approx(0.4));
+
+    const SceneSoftBody& crate = s.soft_bodies[3];
+    CHECK(crate.def.method == SoftMethod::FastMassSpring);
+    REQUIRE(crate.def.positions.size() == 8);
+    CHECK(crate.def.triangles.size() == 12 * 3);
+    // Scaled by 0.5 and moved to (2, 1, 2): corners at 2 +- 0.25, 1 +- 0.25.
+    CHECK(crate.def.positions[0].isApprox(Vec3(Real(1.75), Real(0.75), Real(1.75))));
+    CHECK(s.soft_bodies[4].builder == "ragdoll");
+    CHECK(s.soft_bodies[5].def.links.size() == 28);
+    CHECK(s.soft_bodies[5].def.method == SoftMethod::ExplicitEuler);
+
+    // The world builds, the attachment targets the kinematic hook, and a few steps stay finite.
+    std::vector<BodyId> ids;
+    auto world = build_world(s, &ids);
+    REQUIRE(world->soft().body_count() == 6);
+    const SoftBody& built_rope = world->soft().body(world->soft().bodies()[1]);
+    REQUIRE(built_rope.attachments.size() == 1);
+    CHECK(built_rope.attachments[0].target == pack_body_id(ids[1]));
+    for (int k = 0; k < 10; ++k) world->step();
+    CHECK(world->soft().all_finite());
+    // The attached particle sits at the hook's point.
+    CHECK((built_rope.p.x[0] - Vec3(3, Real(3.9), 0)).norm() < 1e-5);
+}

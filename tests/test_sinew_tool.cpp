@@ -249,18 +249,18 @@ TEST_CASE("run --record writes soft-body particles: the cloth-drop scene", "[too
     CHECK(header["particles"][0]["method"] == "verlet");
     CHECK(header["particles"][0]["count"] == 32 * 32);
     CHECK(header["particles"][0]["triangles"].size() == 2 * 31 * 31);
-    // Frame 0 is the cloth as built: node (i, j) at origin + i/31 edge_u + j/31 edge_v, flat at y = 1.5.
+    // Frame 0 is the cloth as built: node (i, j) at origin + i/31 edge_u + j/31 edge_v, flat at y = 2.
     const nlohmann::json f0 = nlohmann::json::parse(lines[1]);
     REQUIRE(f0["particles"].size() == 1);
     REQUIRE(f0["particles"][0].size() == 3 * 32 * 32);
     const auto& x = f0["particles"][0];
     CHECK(x[0].get<double>() == Approx(-1.0));
-    CHECK(x[1].get<double>() == Approx(1.5));
+    CHECK(x[1].get<double>() == Approx(2.0));
     CHECK(x[3 * 31].get<double>() == Approx(1.0));  // node (31, 0)
     CHECK(x[3 * (32 * 32 - 1) + 2].get<double>() == Approx(1.0));  // node (31, 31): z = -1 + 2
     // After 3 steps of free fall every particle is lower (no pins).
     const nlohmann::json f3 = nlohmann::json::parse(lines[4]);
-    CHECK(f3["particles"][0][1].get<double>() < 1.5);
+    CHECK(f3["particles"][0][1].get<double>() < 2.0);
 }
 
 TEST_CASE("bench rigid and bench cloth print one JSON line per engine, Sinew and Bullet in one run", "[tool][bench]") {
