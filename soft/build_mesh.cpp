@@ -11,45 +11,19 @@
 #include <utility>
 
 #include "engine/core/format.hpp"
-#include "soft/soft_builders.hpp"
+#include "soft/builder_common.hpp"
 
 namespace sinew {
 
+using namespace builder;
+
 namespace {
-
-[[noreturn]] void fail(const char* where, const std::string& what) {
-    throw SoftError(std::string(where) + ": " + what);
-}
-
-void check_material(const char* where, const LinkMaterial& m) {
-    const struct { const char* name; Real value; } nonneg[] = {
-        {"material.stretch", m.stretch}, {"material.shear", m.shear}, {"material.bend", m.bend},
-        {"material.damping", m.damping}};
-    for (const auto& f : nonneg)
-        if (!(is_finite(f.value) && f.value >= 0))
-            fail(where, std::string(f.name) + " must be finite and >= 0, got " + to_text(f.value));
-    if (!(is_finite(m.fraction) && m.fraction > 0 && m.fraction <= 1))
-        fail(where, "material.fraction must be in (0, 1], got " + to_text(m.fraction));
-}
 
 void check_total_mass(const char* where, Real total_mass) {
     if (!(is_finite(total_mass) && total_mass > 0))
         fail(where, "total_mass must be finite and > 0, got " + to_text(total_mass));
 }
 
-Link make_link(const std::vector<Vec3>& x, std::uint32_t a, std::uint32_t b, LinkKind kind, const LinkMaterial& m) {
-    Link l;
-    l.a = a;
-    l.b = b;
-    l.rest = (x[a] - x[b]).norm();
-    l.stiffness = kind == LinkKind::Bend ? m.bend : kind == LinkKind::Shear ? m.shear : m.stretch;
-    l.damping = m.damping;
-    l.fraction = m.fraction;
-    l.min_length = l.rest;
-    l.max_length = l.rest;
-    l.kind = kind;
-    return l;
-}
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
     if (a > b) std::swap(a, b);
@@ -72,14 +46,6 @@ std::vector<std::uint64_t> unique_edges(const std::vector<std::uint32_t>& tris) 
 
 void spread_mass(SoftBodyDef& d, Real total_mass) {
     d.masses.assign(d.positions.size(), total_mass / Real(d.positions.size()));
-}
-
-// The builder's geometry replaces whatever geometry `base` held; its settings, pins and attachments stay.
-void reset_geometry(SoftBodyDef& d) {
-    d.positions.clear();
-    d.masses.clear();
-    d.links.clear();
-    d.triangles.clear();
 }
 
 using DVec3 = Eigen::Vector3d;

@@ -13,17 +13,13 @@
 #include <cmath>
 #include <string>
 
-#include "soft/soft_builders.hpp"
+#include "soft/builder_common.hpp"
 
 namespace sinew {
 
+using namespace builder;
+
 namespace {
-
-[[noreturn]] void fail(const char* where, const std::string& what) {
-    throw SoftError(std::string(where) + ": " + what);
-}
-
-bool finite3(const Vec3& v) { return is_finite(v.x()) && is_finite(v.y()) && is_finite(v.z()); }
 
 // "No upper bound" for an inequality link: finite, so validation and arithmetic stay safe, and far above
 // any distance in a scene (long-range attachments ignore links above 1e12 m as unbounded).
@@ -65,7 +61,7 @@ Link limit(const std::vector<Vec3>& x, std::uint32_t a, std::uint32_t b, Real mi
 
 SoftBodyDef make_particle_ragdoll(const Vec3& feet, Real height, Real total_mass, SoftBodyDef base) {
     const char* where = "make_particle_ragdoll";
-    if (!finite3(feet)) fail(where, "feet is not finite");
+    check_point(where, "feet", feet);
     if (!(is_finite(height) && height > 0)) fail(where, "height must be finite and > 0, got " + std::to_string(height));
     if (!(is_finite(total_mass) && total_mass > 0))
         fail(where, "total_mass must be finite and > 0, got " + std::to_string(total_mass));
@@ -126,8 +122,8 @@ SoftBodyDef make_particle_ragdoll(const Vec3& feet, Real height, Real total_mass
 
 SoftBodyDef make_stick_box(const Vec3& centre, const Vec3& half_extents, Real total_mass, SoftBodyDef base) {
     const char* where = "make_stick_box";
-    if (!finite3(centre)) fail(where, "centre is not finite");
-    if (!finite3(half_extents) || !(half_extents.minCoeff() > 0)) fail(where, "half_extents must be finite and > 0");
+    check_point(where, "centre", centre);
+    if (!is_finite(half_extents) || !(half_extents.minCoeff() > 0)) fail(where, "half_extents must be finite and > 0");
     if (!(is_finite(total_mass) && total_mass > 0))
         fail(where, "total_mass must be finite and > 0, got " + std::to_string(total_mass));
 

@@ -8,60 +8,11 @@
 #include <cmath>
 #include <string>
 
-#include "soft/soft_builders.hpp"
+#include "soft/builder_common.hpp"
 
 namespace sinew {
 
-namespace {
-
-[[noreturn]] void fail(const char* where, const std::string& what) {
-    throw SoftError(std::string(where) + ": " + what);
-}
-
-bool finite3(const Vec3& v) { return is_finite(v.x()) && is_finite(v.y()) && is_finite(v.z()); }
-
-void check_point(const char* where, const char* name, const Vec3& v) {
-    if (!finite3(v)) fail(where, std::string(name) + " is not finite");
-}
-
-void check_positive(const char* where, const char* name, Real x) {
-    if (!(is_finite(x) && x > 0)) fail(where, std::string(name) + " must be finite and > 0, got " + std::to_string(x));
-}
-
-void check_material(const char* where, const LinkMaterial& m) {
-    const struct { const char* name; Real value; } nonneg[] = {
-        {"material.stretch", m.stretch}, {"material.shear", m.shear}, {"material.bend", m.bend},
-        {"material.damping", m.damping}};
-    for (const auto& f : nonneg)
-        if (!(is_finite(f.value) && f.value >= 0))
-            fail(where, std::string(f.name) + " must be finite and >= 0, got " + std::to_string(f.value));
-    if (!(is_finite(m.fraction) && m.fraction > 0 && m.fraction <= 1))
-        fail(where, "material.fraction must be in (0, 1], got " + std::to_string(m.fraction));
-}
-
-Link make_link(const std::vector<Vec3>& x, std::uint32_t a, std::uint32_t b, LinkKind kind, const LinkMaterial& m) {
-    Link l;
-    l.a = a;
-    l.b = b;
-    l.rest = (x[a] - x[b]).norm();
-    l.stiffness = kind == LinkKind::Shear ? m.shear : kind == LinkKind::Bend ? m.bend : m.stretch;
-    l.damping = m.damping;
-    l.fraction = m.fraction;
-    l.min_length = l.rest;  // equality constraint under Verlet
-    l.max_length = l.rest;
-    l.kind = kind;
-    return l;
-}
-
-// The builder's geometry replaces whatever geometry `base` held; its settings, pins and attachments stay.
-void reset_geometry(SoftBodyDef& d) {
-    d.positions.clear();
-    d.masses.clear();
-    d.links.clear();
-    d.triangles.clear();
-}
-
-}  // namespace
+using namespace builder;
 
 SoftBodyDef make_rope(const Vec3& a, const Vec3& b, int segments, Real total_mass, const LinkMaterial& m,
                       SoftBodyDef base) {

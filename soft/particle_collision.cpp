@@ -49,9 +49,7 @@ int ParticleCollision::project_positions(SoftBody& b, Real h) {
         for (std::size_t i = 0; i < b.p.size(); ++i) {
             if (b.p.inv_mass[i] == 0) continue;
             Vec3& x = b.p.x[i];
-            if (x.x() < reach.lo.x() || x.x() > reach.hi.x() || x.y() < reach.lo.y() || x.y() > reach.hi.y() ||
-                x.z() < reach.lo.z() || x.z() > reach.hi.z())
-                continue;
+            if (!reach.contains(x)) continue;
             Vec3 s, n;
             Real d;
             if (!point_shape_distance(x, *col.shape, col.xf, r, s, n, d) || d >= r) continue;
@@ -81,9 +79,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         for (std::uint32_t i = 0; i < b.p.size(); ++i) {
             if (b.p.inv_mass[i] == 0) continue;
             Vec3& x = b.p.x[i];
-            if (x.x() < reach.lo.x() || x.x() > reach.hi.x() || x.y() < reach.lo.y() || x.y() > reach.hi.y() ||
-                x.z() < reach.lo.z() || x.z() > reach.hi.z())
-                continue;
+            if (!reach.contains(x)) continue;
             Vec3 s, n;
             Real d;
             if (!point_shape_distance(x, *col.shape, col.xf, r * (1 + kContactSlop), s, n, d)) continue;

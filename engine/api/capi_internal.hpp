@@ -7,23 +7,42 @@
 #include <memory>
 #include <string>
 
+#include "engine/api/capi_alloc.hpp"
+#include "engine/api/capi_events.hpp"
 #include "engine/api/sinew.h"
 #include "engine/world/world.hpp"
 
 namespace sinew::capi {
 
-/// Fails a call: records the message for sinew_last_error() and returns the status.
+/// Fails a call: records the message for sinew_last_error(), sends it to the log callback at
+/// SINEW_LOG_ERROR, and returns the status.
 sinew_status fail(sinew_status status, std::string message);
 void clear_error();
+/// Sends a message to the host's log callback, if one is set (capi_hooks.cpp).
+void log_message(sinew_log_level level, const std::string& message);
+
+/// What a world handle refers to: the World and the C API's per-world state. Allocated, with its event
+/// buffers, through the host hooks current at the world's creation (kept in `hooks`).
+struct WorldEntry {
+    WorldEntry(std::unique_ptr<World> w, const HostHooks& h) : hooks(h), world(std::move(w)), events(*world, h) {}
+    HostHooks hooks;
+    std::unique_ptr<World> world;
+    WorldEvents events;  ///< after `world`: destroyed first, it unregisters its pipeline hooks
+};
 
 /// The live world for a handle, or nullptr after recording SINEW_ERROR_STALE_ID naming `fn`.
 World* find_world(sinew_world_id id, const char* fn);
+WorldEntry* find_entry(sinew_world_id id, const char* fn);
+/// SINEW_ERROR_IN_STEP (recorded, naming fn) if the world is stepping, else SINEW_OK.
+sinew_status check_not_stepping(const World* w, const char* fn);
 /// The body id inside its world, or a null id after recording the error.
 BodyId find_body(sinew_body_id id, const char* fn, World** world);
 /// Body handles carry their world as (generation << 16) | index.
 std::uint32_t pack_world(sinew_world_id id);
 sinew_world_id world_of(sinew_body_id id);
 
+/// Registers a world (its entry is allocated through the current host hooks). Throws on failure, and the
+/// world is then destroyed.
 sinew_world_id register_world(std::unique_ptr<World> world);
 void unregister_world(sinew_world_id id);
 

@@ -7,15 +7,6 @@
 using namespace sinew;
 using namespace sinew::capi;
 
-namespace {
-
-sinew_status check_not_stepping(const World* w, const char* fn) {
-    if (w->in_step()) return fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
-    return SINEW_OK;
-}
-
-}  // namespace
-
 extern "C" {
 
 sinew_world_def sinew_world_def_default(void) {
@@ -76,13 +67,25 @@ sinew_status sinew_world_destroy(sinew_world_id id) {
 
 sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_taken, float* alpha) {
     return guarded("sinew_world_step", [&] {
-        World* w = find_world(id, "sinew_world_step");
-        if (!w) return SINEW_ERROR_STALE_ID;
+        WorldEntry* e = find_entry(id, "sinew_world_step");
+        if (!e) return SINEW_ERROR_STALE_ID;
+        World* w = e->world.get();
         if (sinew_status s = check_not_stepping(w, "sinew_world_step")) return s;
         if (!std::isfinite(frame_dt) || frame_dt < 0)
             return fail(SINEW_ERROR_INVALID_ARGUMENT,
                         "sinew_world_step: frame_dt = " + to_text(frame_dt) + " must be finite and >= 0");
-        int n = w->advance(Real(frame_dt));
+        const double h = double(w->settings().time_step);
+        const double pending = double(w->interpolation_alpha()) * h + double(frame_dt);
+        e->events.clear();
+        const int n = w->advance(Real(frame_dt));
+        // The accumulator cap drops what it could not simulate: tell the host (a frame hitch or a world
+        // too slow for its time step).
+        const double left = pending - n * h;
+        if (n == w->settings().max_steps_per_frame && left >= h)
+            log_message(SINEW_LOG_WARNING,
+                        "sinew_world_step: frame_dt = " + to_text(frame_dt) + " s needed more than max_steps_per_frame = " +
+                            std::to_string(n) + " steps; " + to_text(left - double(w->interpolation_alpha()) * h) +
+                            " s of simulated time were dropped");
         if (steps_taken) *steps_taken = n;
         if (alpha) *alpha = float(w->interpolation_alpha());
         return SINEW_OK;
@@ -91,10 +94,21 @@ sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_take
 
 sinew_status sinew_world_step_fixed(sinew_world_id id) {
     return guarded("sinew_world_step_fixed", [&] {
-        World* w = find_world(id, "sinew_world_step_fixed");
-        if (!w) return SINEW_ERROR_STALE_ID;
-        if (sinew_status s = check_not_stepping(w, "sinew_world_step_fixed")) return s;
-        w->step();
+        WorldEntry* e = find_entry(id, "sinew_world_step_fixed");
+        if (!e) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(e->world.get(), "sinew_world_step_fixed")) return s;
+        e->events.clear();
+        e->world->step();
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_events(sinew_world_id id, sinew_events* out) {
+    return guarded("sinew_world_get_events", [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, "sinew_world_get_events: out is NULL");
+        WorldEntry* e = find_entry(id, "sinew_world_get_events");
+        if (!e) return SINEW_ERROR_STALE_ID;
+        *out = e->events.view();
         return SINEW_OK;
     });
 }

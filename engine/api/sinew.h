@@ -5,23 +5,34 @@
  *
  * Conventions
  * - Units: metres, kilograms, seconds, radians; forces in newtons, impulses in newton-seconds.
- * - Handles are values: {index, generation} (bodies also carry their world). A zero generation is the
- *   null handle. A stale handle (its object was destroyed) or a foreign one is detected and rejected,
- *   never dereferenced.
- * - Every call that can fail returns a sinew_status; sinew_last_error() then names the argument and the
- *   value. A rejected call leaves the world exactly as it was.
+ * - Handles are values: {world, index, generation}. A zero generation is the null handle. A stale handle
+ *   (its object was destroyed) or a foreign one (another world's) is detected and rejected with
+ *   SINEW_ERROR_STALE_ID, never dereferenced.
+ * - Every call that can fail returns a sinew_status; sinew_last_error() then names the function, the
+ *   argument and the value. A rejected call leaves the world exactly as it was.
  * - Definitions have defaults: start from sinew_*_def_default() and change what you need.
+ * - Enum fields are checked: a value outside the enum (a C caller can store any int) is rejected.
  * - The API is single precision (float) whatever Real the library was built with.
  *
- * Threading: a world is used by one thread at a time. Different worlds may be used from different
- * threads concurrently. sinew_last_error() is per thread. Calls that change a world are rejected with
- * SINEW_ERROR_IN_STEP while that world is stepping (e.g. from a callback).
- *
- * This header grows with the engine: rigid bodies now; joints, events, queries, soft bodies next.
+ * Threading contract
+ * - A world, and every body, soft body and joint in it, is used by one thread at a time: calls on the
+ *   same world must not overlap (serialise them yourself if several threads touch one world).
+ * - Different worlds may be used from different threads at the same time, with no locking on your side:
+ *   worlds share no mutable state. sinew_world_create, sinew_world_create_from_scene_file and
+ *   sinew_world_destroy may be called concurrently from any threads (the registry of worlds is locked).
+ * - sinew_last_error() is per thread: it reports the last failed call made by the calling thread.
+ * - sinew_version() may be called from any thread at any time.
+ * - sinew_set_log_callback() and sinew_set_allocator() may be called from any thread; the log callback is
+ *   called on the thread whose call produced the message, so it may run on several threads at once if
+ *   several worlds are used concurrently. A world keeps the allocator it was created with.
+ * - While a world steps, calls that change it are rejected with SINEW_ERROR_IN_STEP (this can only happen
+ *   from inside a callback: the log callback or the allocator hooks). Reading calls are allowed.
+ * - Stepping is single-threaded inside the library today (the task-system hooks come later).
  */
 #ifndef SINEW_H
 #define SINEW_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #if defined(_WIN32)
@@ -40,7 +51,9 @@ typedef enum sinew_status {
     SINEW_ERROR_INVALID_ARGUMENT = 2, /* NaN, negative mass, degenerate shape, out-of-range enum, ... */
     SINEW_ERROR_STALE_ID = 3,         /* null, destroyed or foreign handle */
     SINEW_ERROR_IN_STEP = 4,          /* the world is stepping */
-    SINEW_ERROR_INTERNAL = 5          /* out of memory or a bug: the message says which */
+    SINEW_ERROR_INTERNAL = 5,         /* out of memory or a bug: the message says which */
+    SINEW_ERROR_SCENE = 6             /* a scene file is missing, malformed or invalid: the message names the
+                                         file and the JSON pointer of the offending value */
 } sinew_status;
 
 typedef struct sinew_vec3 { float x, y, z; } sinew_vec3;
@@ -122,6 +135,247 @@ SINEW_API sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 li
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
+
+/* ==== Soft bodies ====================================================================================
+ * Particles joined by links (cloth, ropes, spheres, any triangle mesh). Rigid bodies push soft bodies and
+ * carry their attached particles (one-way coupling); soft bodies do not push rigid ones yet. */
+
+typedef struct sinew_soft_body_id { uint32_t world; uint32_t index; uint32_t generation; } sinew_soft_body_id;
+
+typedef enum sinew_soft_method {
+    SINEW_SOFT_VERLET = 0,        /* Jakobsen 2003: Verlet integration, links relaxed as distance constraints */
+    SINEW_SOFT_EXPLICIT = 1,      /* springs, explicit Euler (unstable when undamped: for comparisons) */
+    SINEW_SOFT_SEMI_IMPLICIT = 2, /* springs, symplectic Euler (stable while omega h < 2) */
+    SINEW_SOFT_IMPLICIT = 3,      /* springs, Baraff & Witkin 1998 implicit Euler (one Newton step, CG) */
+    SINEW_SOFT_FAST_MS = 4        /* springs, Liu et al. 2013 fast mass-spring (local/global) */
+} sinew_soft_method;
+
+/* Link material by kind. Mass-spring methods read stretch/shear/bend/damping; Verlet reads fraction. */
+typedef struct sinew_soft_links {
+    float stretch;  /* N/m, >= 0, structural links (default 1000) */
+    float shear;    /* N/m, >= 0, diagonal links (default 1000) */
+    float bend;     /* N/m, >= 0, links two apart (default 100) */
+    float damping;  /* N s/m, >= 0, along every link (default 0) */
+    float fraction; /* Verlet stiffness fraction per relaxation, in (0, 1] (default 1) */
+} sinew_soft_links;
+
+typedef struct sinew_soft_def {
+    sinew_soft_method method;   /* default SINEW_SOFT_VERLET */
+    int iterations;             /* [1, 10000]: Verlet relaxations, CG cap, fast-ms iterations (default 10) */
+    float drag;                 /* 1/s, >= 0: velocity damping (default 0) */
+    float friction;             /* >= 0, particle-vs-rigid Coulomb coefficient (default 0.5) */
+    float restitution;          /* [0, 1] (default 0) */
+    float thickness;            /* m, > 0: particle collision radius (default 0.01) */
+    float pressure;             /* J (Matyka's P_c), >= 0; needs a closed surface (icosphere, closed mesh).
+                                   0 = none (default) */
+    int long_range_attachments; /* 0 or 1: Kim et al. 2012 LRA constraints to the pinned particles (default 0) */
+    sinew_soft_links links;
+    float total_mass;           /* kg, > 0, spread evenly over the particles (default 1) */
+    sinew_vec3 velocity;        /* m/s, initial velocity of every free particle (default 0) */
+    float gravity_scale;        /* finite (default 1) */
+    int allow_sleep;            /* 0 or 1 (default 1) */
+    uint64_t user_data;         /* yours, returned by sinew_soft_user_data() */
+} sinew_soft_def;
+
+/* Corners of a cloth grid to pin, combined with |: node (i, j) with i in {0, nx-1}, j in {0, ny-1}. */
+enum {
+    SINEW_CLOTH_PIN_00 = 1, /* node (0, 0) = origin */
+    SINEW_CLOTH_PIN_10 = 2, /* node (nx-1, 0) = origin + edge_u */
+    SINEW_CLOTH_PIN_01 = 4, /* node (0, ny-1) = origin + edge_v */
+    SINEW_CLOTH_PIN_11 = 8  /* node (nx-1, ny-1) = origin + edge_u + edge_v */
+};
+
+/* A rectangular cloth grid; node (i, j) is particle j * nx + i. */
+typedef struct sinew_cloth_def {
+    int nx, ny;             /* nodes along u and along v, each in [2, 4096] (default 16 x 16) */
+    sinew_vec3 origin;      /* m, position of node (0, 0) (default (0, 0, 0)) */
+    sinew_vec3 edge_u;      /* m, from node (0, 0) to node (nx-1, 0) (default (2, 0, 0)) */
+    sinew_vec3 edge_v;      /* m, from node (0, 0) to node (0, ny-1) (default (0, -2, 0)) */
+    int shear;              /* 0 or 1: both diagonals of every quad (default 1) */
+    int bend;               /* 0 or 1: links between nodes two apart (default 0) */
+    int pinned_corners;     /* SINEW_CLOTH_PIN_* flags (default 0) */
+} sinew_cloth_def;
+
+SINEW_API sinew_soft_def sinew_soft_def_default(void);
+SINEW_API sinew_cloth_def sinew_cloth_def_default(void);
+SINEW_API sinew_status sinew_soft_create_cloth(sinew_world_id world, const sinew_soft_def* def,
+                                               const sinew_cloth_def* cloth, sinew_soft_body_id* out);
+/** A rope of `segments` (>= 1) links from `from` to `to` (m, distinct): segments + 1 particles. */
+SINEW_API sinew_status sinew_soft_create_rope(sinew_world_id world, const sinew_soft_def* def, sinew_vec3 from,
+                                              sinew_vec3 to, int segments, sinew_soft_body_id* out);
+/** A geodesic sphere: radius > 0 (m), subdivisions in [0, 6] (0: 12 particles, 2: 162, 3: 642). */
+SINEW_API sinew_status sinew_soft_create_icosphere(sinew_world_id world, const sinew_soft_def* def, sinew_vec3 center,
+                                                   float radius, int subdivisions, sinew_soft_body_id* out);
+/** A body from a triangle mesh: vertex_count (> 0) positions (m, world), index_count (a multiple of 3,
+ *  >= 3) vertex indices, counter-clockwise seen from outside; links join vertices at graph distance
+ *  <= link_distance (1 = edges, 2 adds bend-like links; [1, 3]). The arrays are copied. */
+SINEW_API sinew_status sinew_soft_create_mesh(sinew_world_id world, const sinew_soft_def* def,
+                                              const sinew_vec3* vertices, int vertex_count, const uint32_t* indices,
+                                              int index_count, int link_distance, sinew_soft_body_id* out);
+SINEW_API sinew_status sinew_soft_destroy(sinew_soft_body_id body);
+SINEW_API sinew_status sinew_soft_particle_count(sinew_soft_body_id body, int* out);
+/** Bulk read for rendering: particle positions (m) 0 .. min(capacity, count) - 1 into `positions`;
+ *  *count receives how many were written. No allocation. */
+SINEW_API sinew_status sinew_soft_get_positions(sinew_soft_body_id body, sinew_vec3* positions, int capacity, int* count);
+/** pinned = 1 fixes the particle in space, 0 frees it (an attached particle must be detached first). */
+SINEW_API sinew_status sinew_soft_set_pinned(sinew_soft_body_id body, int particle, int pinned);
+/** The particle follows `local_point` (m, in the rigid body's frame) of `rigid_body`, which must be in the
+ *  same world; the particle is kinematic until detached. Attaching an attached particle retargets it. If
+ *  the rigid body is destroyed the particle stays where it was, still kinematic. */
+SINEW_API sinew_status sinew_soft_attach(sinew_soft_body_id body, int particle, sinew_body_id rigid_body,
+                                         sinew_vec3 local_point);
+/** Removes the particle's attachment; the particle is free (not pinned) afterwards. */
+SINEW_API sinew_status sinew_soft_detach(sinew_soft_body_id body, int particle);
+/** Teleports a particle (m); it gains no velocity. Wakes the body. */
+SINEW_API sinew_status sinew_soft_set_particle_position(sinew_soft_body_id body, int particle, sinew_vec3 position);
+/** Adds a force (N) on a particle for the next step. Wakes the body. */
+SINEW_API sinew_status sinew_soft_apply_particle_force(sinew_soft_body_id body, int particle, sinew_vec3 force);
+SINEW_API sinew_status sinew_soft_user_data(sinew_soft_body_id body, uint64_t* out);
+SINEW_API sinew_status sinew_world_soft_body_count(sinew_world_id world, int* out);
+/** Up to capacity soft body handles, in slot order (creation order in a fresh world, scene file order for
+ *  a loaded scene); *count receives how many were written. */
+SINEW_API sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_id* ids, int capacity,
+                                                   int* count);
+
+/* ==== Joints ========================================================================================
+ * Anchors are points in each body's origin frame (m); the hinge/slider axis is in A's frame. The bodies'
+ * relative orientation at creation is the joint's zero (hinge angle 0, slider translation 0). */
+
+typedef struct sinew_joint_id { uint32_t world; uint32_t index; uint32_t generation; } sinew_joint_id;
+
+typedef enum sinew_joint_type {
+    SINEW_JOINT_BALL = 0,     /* anchors coincide */
+    SINEW_JOINT_HINGE = 1,    /* rotation about local_axis_a only; limit (rad) and motor (rad/s, N m) */
+    SINEW_JOINT_SLIDER = 2,   /* translation along local_axis_a only; limit (m) and motor (m/s, N) */
+    SINEW_JOINT_DISTANCE = 3, /* anchors keep `length`; rigid, or a spring (frequency, damping_ratio) */
+    SINEW_JOINT_FIXED = 4     /* weld */
+} sinew_joint_type;
+
+typedef struct sinew_joint_def {
+    sinew_joint_type type;      /* default SINEW_JOINT_BALL */
+    sinew_body_id body_a;       /* distinct bodies of the world, at least one dynamic; no default */
+    sinew_body_id body_b;
+    sinew_vec3 local_anchor_a;  /* m, in A's frame (default 0) */
+    sinew_vec3 local_anchor_b;  /* m, in B's frame (default 0) */
+    sinew_vec3 local_axis_a;    /* hinge/slider axis in A's frame, non-zero (default (0, 0, 1)) */
+    int collide_connected;      /* 0 or 1: contacts between the two bodies (default 0) */
+    int enable_limit;           /* 0 or 1 (default 0) */
+    float lower, upper;         /* limit: hinge rad within [-pi, pi], slider m; lower <= upper (default 0, 0) */
+    int enable_motor;           /* 0 or 1 (default 0) */
+    float motor_speed;          /* hinge rad/s, slider m/s (default 0) */
+    float max_motor_force;      /* >= 0: hinge N m, slider N (default 0) */
+    float length;               /* distance joint rest length, m; < 0 = the anchors' distance at creation
+                                   (default -1) */
+    float frequency;            /* distance joint spring, Hz, >= 0; 0 = rigid (default 0) */
+    float damping_ratio;        /* distance joint spring, >= 0, 1 = critical (default 0) */
+    float break_force;          /* N (torque rows: N m), >= 0; 0 = unbreakable (default 0) */
+    uint64_t user_data;         /* yours, reported in joint break events */
+} sinew_joint_def;
+
+SINEW_API sinew_joint_def sinew_joint_def_default(void);
+/** Creates a joint and wakes both bodies. Bodies of another world are SINEW_ERROR_STALE_ID. */
+SINEW_API sinew_status sinew_joint_create(sinew_world_id world, const sinew_joint_def* def, sinew_joint_id* out);
+/** Destroys a joint. Joints also disappear when they break or when one of their bodies is destroyed. */
+SINEW_API sinew_status sinew_joint_destroy(sinew_joint_id joint);
+/** Force (N) and torque (N m) the joint applied to body B in the last step (A received the opposite);
+ *  either pointer may be NULL, not both. */
+SINEW_API sinew_status sinew_joint_get_reaction(sinew_joint_id joint, sinew_vec3* force, sinew_vec3* torque);
+/** Changes a hinge or slider motor (enable 0 or 1, speed finite, max_force >= 0) and wakes its bodies. */
+SINEW_API sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, float speed, float max_force);
+
+/* ==== Scenes ========================================================================================
+ * Scene files are documented in docs/scene-format.md (the same files `sinew run` steps). */
+
+/** Creates a world from a scene file: its settings, rigid bodies (file order, then generators), joints and
+ *  soft bodies. On a bad file returns SINEW_ERROR_SCENE with the file, the JSON pointer and the problem
+ *  in sinew_last_error(), and creates nothing. */
+SINEW_API sinew_status sinew_world_create_from_scene_file(const char* path, sinew_world_id* out);
+
+/* ==== Events ========================================================================================
+ * Gathered during every fixed step and read after sinew_world_step / sinew_world_step_fixed returns. Each
+ * stepping call first clears the previous call's events; the arrays then hold the events of all the
+ * fixed steps that call took, in step order, and within a step in a fixed order (below), so two identical
+ * runs report identical events. The arrays stay valid until the next call that steps or destroys the
+ * world. */
+
+/* Two bodies began to touch: their first manifold with at least one point appeared (speculative points
+ * within the contact margin count, as in Box2D). body_a's slot is below body_b's. */
+typedef struct sinew_contact_begin_event {
+    sinew_body_id body_a, body_b;
+    sinew_vec3 point;       /* m, world: the first contact point */
+    sinew_vec3 normal;      /* unit, from A to B */
+    float normal_impulse;   /* N s, summed over the pair's points: the solver's accumulated normal impulse at
+                               the end of that step. With SINEW_SOLVER_SPLIT_IMPULSE, _BAUMGARTE and _NEWTON
+                               it is the step's impulse (a 1 kg box landing at v: m v + m g h). With the
+                               default SINEW_SOLVER_SOFT_STEP it is the last sub-step's impulse (that solver
+                               keeps per-sub-step impulses), so it understates an impact. */
+    uint64_t step;          /* the world's step count after the step it happened in */
+} sinew_contact_begin_event;
+
+/* Two bodies stopped touching (or one of them was destroyed: its handle is then stale). */
+typedef struct sinew_contact_end_event {
+    sinew_body_id body_a, body_b;
+    uint64_t step;
+} sinew_contact_end_event;
+
+/* A dynamic rigid body fell asleep (awake = 0) or woke up (awake = 1) during a step. */
+typedef struct sinew_sleep_event {
+    sinew_body_id body;
+    int awake;
+    uint64_t step;
+} sinew_sleep_event;
+
+/* A joint broke (its force exceeded break_force) and was removed: `joint` is stale now. body_a, body_b
+ * and user_data are those of its definition. */
+typedef struct sinew_joint_break_event {
+    sinew_joint_id joint;
+    sinew_body_id body_a, body_b;
+    uint64_t user_data;
+    uint64_t step;
+} sinew_joint_break_event;
+
+typedef struct sinew_events {
+    const sinew_contact_begin_event* contact_begin; /* in (body_a slot, body_b slot) order per step */
+    int contact_begin_count;
+    const sinew_contact_end_event* contact_end;     /* same order */
+    int contact_end_count;
+    const sinew_sleep_event* sleep;                 /* in body slot order per step */
+    int sleep_count;
+    const sinew_joint_break_event* joint_break;     /* in the order the solver broke them */
+    int joint_break_count;
+    int dropped;  /* events lost because the allocator returned NULL (0 normally) */
+} sinew_events;
+
+SINEW_API sinew_status sinew_world_get_events(sinew_world_id world, sinew_events* out);
+
+/* ==== Host hooks ==================================================================================== */
+
+typedef enum sinew_log_level { SINEW_LOG_ERROR = 0, SINEW_LOG_WARNING = 1, SINEW_LOG_INFO = 2 } sinew_log_level;
+/** `message` is valid during the call only. */
+typedef void (*sinew_log_fn)(sinew_log_level level, const char* message, void* user);
+
+/** Sets the callback that receives the library's messages (NULL: none; the default, the library prints
+ *  nothing): every failed call's message at SINEW_LOG_ERROR (the text of sinew_last_error()), frame time
+ *  dropped by the max_steps_per_frame cap at SINEW_LOG_WARNING, loaded scenes and broken joints at
+ *  SINEW_LOG_INFO. Broken joints are logged during the step: a callback that tries to change that world
+ *  then gets SINEW_ERROR_IN_STEP. */
+SINEW_API sinew_status sinew_set_log_callback(sinew_log_fn fn, void* user);
+
+/** Allocation hooks. alloc returns memory aligned to `alignment` (a power of two, at most 16) or NULL;
+ *  free receives the size that was allocated. */
+typedef struct sinew_allocator {
+    void* (*alloc)(size_t size, size_t alignment, void* user);
+    void (*free)(void* ptr, size_t size, void* user);
+    void* user;
+} sinew_allocator;
+
+/** Sets the allocator for the C API's own per-world memory: each world's handle record and its event
+ *  buffers (contact, sleep and joint-break events, the previous step's contact pairs and awake flags).
+ *  NOT covered yet: the C++ engine inside (World, the rigid and soft systems, their arrays, scene parsing)
+ *  still uses operator new. A world keeps the hooks it was created with until it is destroyed, so the
+ *  hooks must stay callable that long; changing them affects worlds created afterwards. NULL restores
+ *  malloc/free. alloc and free must both be set. */
+SINEW_API sinew_status sinew_set_allocator(const sinew_allocator* allocator);
 
 #ifdef __cplusplus
 }

@@ -17,6 +17,10 @@ struct Aabb {
         return lo.x() <= b.lo.x() && lo.y() <= b.lo.y() && lo.z() <= b.lo.z() && b.hi.x() <= hi.x() &&
                b.hi.y() <= hi.y() && b.hi.z() <= hi.z();
     }
+    bool contains(const Vec3& x) const {
+        return lo.x() <= x.x() && x.x() <= hi.x() && lo.y() <= x.y() && x.y() <= hi.y() && lo.z() <= x.z() &&
+               x.z() <= hi.z();
+    }
     Aabb merged(const Aabb& b) const { return {lo.cwiseMin(b.lo), hi.cwiseMax(b.hi)}; }
     Aabb fattened(Real margin) const { return {lo.array() - margin, hi.array() + margin}; }
     void grow(const Vec3& x) {

@@ -286,14 +286,6 @@ ClothRun run_sinew(const ClothScene& s, const SinewSetting& v, int steps, BenchC
 
 // ---- output ------------------------------------------------------------------------------------------
 
-std::vector<std::string> split_list(const std::string& s) {
-    std::vector<std::string> out;
-    std::stringstream ss(s);
-    std::string item;
-    while (std::getline(ss, item, ','))
-        if (!item.empty()) out.push_back(item);
-    return out;
-}
 
 std::string fmt(const char* f, double x) {
     if (!std::isfinite(x)) return "-";

@@ -86,14 +86,6 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     return run;
 }
 
-std::vector<std::string> split_list(const std::string& s) {
-    std::vector<std::string> out;
-    std::stringstream ss(s);
-    std::string item;
-    while (std::getline(ss, item, ','))
-        if (!item.empty()) out.push_back(item);
-    return out;
-}
 
 std::string markdown_table(const std::vector<RigidRun>& runs) {
     std::ostringstream md;
@@ -160,6 +152,15 @@ bool write_chart(const std::vector<RigidRun>& runs, const std::string& png) {
 }
 
 }  // namespace
+
+std::vector<std::string> split_list(const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ','))
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
 
 int cmd_bench(const std::vector<std::string>& args) {
     using tool::UsageError;

@@ -39,6 +39,8 @@ private:
 };
 
 double median(std::vector<double> v);
+/// "a,b,,c" -> {"a", "b", "c"} (the --scenes and --engines lists).
+std::vector<std::string> split_list(const std::string& s);
 /// Fills the summary fields of a run (median time, drift, drop, stood, collapsed) from its samples.
 void finish_run(RigidRun& run, const std::vector<double>& ms, const DriftMeter& meter);
 std::string to_json_line(const RigidRun& r);

@@ -1,0 +1,482 @@
+// C API: soft bodies (soft/soft_system.hpp), created through the builders of soft/soft_builders.hpp.
+//
+// Every argument is checked here, naming the C field (def->drag, cloth->nx, vertices[3], particle = 7),
+// before anything is built; SoftError from the soft layer (e.g. a degenerate mesh triangle) is the last
+// line of defence and is reported as SINEW_ERROR_INVALID_ARGUMENT with its own text.
+#include <algorithm>
+#include <cmath>
+
+#include "coupling/one_way_coupling.hpp"
+#include "engine/api/capi_internal.hpp"
+#include "engine/core/format.hpp"
+#include "soft/soft_builders.hpp"
+
+using namespace sinew;
+using namespace sinew::capi;
+
+namespace {
+
+sinew_status invalid(const char* fn, const std::string& what) {
+    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
+}
+sinew_status null_arg(const char* fn, const char* name) {
+    return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": " + name + " is NULL");
+}
+std::string vec_text(const sinew_vec3& v) { return to_text(Vec3(Real(v.x), Real(v.y), Real(v.z))); }
+
+bool nonneg(float x) { return std::isfinite(x) && x >= 0; }
+
+/// "" if the definition is valid, else what is wrong with which field.
+std::string check_soft_def(const sinew_soft_def& d) {
+    const int method = enum_value(d.method);
+    if (method < SINEW_SOFT_VERLET || method > SINEW_SOFT_FAST_MS)
+        return "def->method = " + std::to_string(method) + " is not a sinew_soft_method";
+    if (d.iterations < 1 || d.iterations > 10000)
+        return "def->iterations = " + std::to_string(d.iterations) + " must be in [1, 10000]";
+    if (!nonneg(d.drag)) return "def->drag = " + to_text(d.drag) + " must be finite and >= 0 (1/s)";
+    if (!nonneg(d.friction)) return "def->friction = " + to_text(d.friction) + " must be finite and >= 0";
+    if (!(d.restitution >= 0 && d.restitution <= 1))
+        return "def->restitution = " + to_text(d.restitution) + " must be in [0, 1]";
+    if (!(std::isfinite(d.thickness) && d.thickness > 0))
+        return "def->thickness = " + to_text(d.thickness) + " must be finite and > 0 (m)";
+    if (!nonneg(d.pressure)) return "def->pressure = " + to_text(d.pressure) + " must be finite and >= 0 (J)";
+    if (d.long_range_attachments != 0 && d.long_range_attachments != 1)
+        return "def->long_range_attachments = " + std::to_string(d.long_range_attachments) + " must be 0 or 1";
+    const struct {
+        const char* name;
+        float value;
+    } stiff[] = {{"stretch", d.links.stretch}, {"shear", d.links.shear}, {"bend", d.links.bend}, {"damping", d.links.damping}};
+    for (const auto& s : stiff)
+        if (!nonneg(s.value))
+            return std::string("def->links.") + s.name + " = " + to_text(s.value) + " must be finite and >= 0";
+    if (!(d.links.fraction > 0 && d.links.fraction <= 1))
+        return "def->links.fraction = " + to_text(d.links.fraction) + " must be in (0, 1]";
+    if (!(std::isfinite(d.total_mass) && d.total_mass > 0))
+        return "def->total_mass = " + to_text(d.total_mass) + " must be finite and > 0 (kg)";
+    if (!finite(d.velocity)) return "def->velocity = " + vec_text(d.velocity) + " must be finite";
+    if (!std::isfinite(d.gravity_scale)) return "def->gravity_scale = " + to_text(d.gravity_scale) + " must be finite";
+    if (d.allow_sleep != 0 && d.allow_sleep != 1)
+        return "def->allow_sleep = " + std::to_string(d.allow_sleep) + " must be 0 or 1";
+    return {};
+}
+
+SoftBodyDef base_def(const sinew_soft_def& d) {
+    SoftBodyDef b;
+    switch (enum_value(d.method)) {
+        case SINEW_SOFT_EXPLICIT: b.method = SoftMethod::ExplicitEuler; break;
+        case SINEW_SOFT_SEMI_IMPLICIT: b.method = SoftMethod::SemiImplicitEuler; break;
+        case SINEW_SOFT_IMPLICIT: b.method = SoftMethod::ImplicitEuler; break;
+        case SINEW_SOFT_FAST_MS: b.method = SoftMethod::FastMassSpring; break;
+        default: b.method = SoftMethod::Verlet; break;
+    }
+    b.iterations = d.iterations;
+    b.drag = Real(d.drag);
+    b.friction = Real(d.friction);
+    b.restitution = Real(d.restitution);
+    b.thickness = Real(d.thickness);
+    b.pressure = Real(d.pressure);
+    b.long_range_attachments = d.long_range_attachments == 1;
+    b.initial_velocity = to_vec(d.velocity);
+    b.gravity_scale = Real(d.gravity_scale);
+    b.allow_sleep = d.allow_sleep == 1;
+    b.user_data = d.user_data;
+    return b;
+}
+
+LinkMaterial link_material(const sinew_soft_def& d) {
+    LinkMaterial m;
+    m.stretch = Real(d.links.stretch);
+    m.shear = Real(d.links.shear);
+    m.bend = Real(d.links.bend);
+    m.damping = Real(d.links.damping);
+    m.fraction = Real(d.links.fraction);
+    return m;
+}
+
+/// The checks every creation shares: pointers, the world (not stepping) and the definition.
+sinew_status begin_create(const char* fn, sinew_world_id world, const sinew_soft_def* def, sinew_soft_body_id* out,
+                          World** w) {
+    if (!def) return null_arg(fn, "def");
+    if (!out) return null_arg(fn, "out");
+    *w = find_world(world, fn);
+    if (!*w) return SINEW_ERROR_STALE_ID;
+    if (sinew_status s = check_not_stepping(*w, fn)) return s;
+    const std::string bad = check_soft_def(*def);
+    if (!bad.empty()) return invalid(fn, bad);
+    return SINEW_OK;
+}
+
+sinew_status finish_create(World* w, sinew_world_id world, SoftBodyDef def, sinew_soft_body_id* out) {
+    const SoftBodyId id = w->soft().create_body(std::move(def));  // SoftError: nothing was created
+    *out = {pack_world(world), id.index, id.generation};
+    return SINEW_OK;
+}
+
+/// The soft body and its world, or the failure recorded; also rejects mutations during a step.
+struct Target {
+    World* world = nullptr;
+    SoftBodyId body;
+    sinew_status status = SINEW_OK;
+};
+Target target(sinew_soft_body_id id, const char* fn, bool mutates) {
+    Target t;
+    if (id.generation == 0) {
+        t.status = fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body is the null handle");
+        return t;
+    }
+    const sinew_world_id wid{id.world & 0xFFFFu, id.world >> 16};
+    t.world = find_world(wid, fn);
+    if (!t.world) {
+        t.status = SINEW_ERROR_STALE_ID;
+        return t;
+    }
+    const SoftBodyId b{id.index, id.generation};
+    if (!t.world->soft().valid(b)) {
+        t.status = fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(id.index) +
+                                                  ", generation " + std::to_string(id.generation) +
+                                                  "} is null, destroyed or not in world " + std::to_string(id.world));
+        return t;
+    }
+    if (mutates && t.world->in_step()) {
+        t.status = fail(SINEW_ERROR_IN_STEP, std::string(fn) + ": the world is stepping");
+        return t;
+    }
+    t.body = b;
+    return t;
+}
+
+/// SINEW_OK if `particle` indexes the body's particles, else the failure recorded.
+sinew_status check_particle(const Target& t, int particle, const char* fn) {
+    const std::size_t n = t.world->soft().body(t.body).p.size();
+    if (particle < 0 || static_cast<std::size_t>(particle) >= n)
+        return invalid(fn, "particle = " + std::to_string(particle) + " is out of range (" + std::to_string(n) +
+                               " particles)");
+    return SINEW_OK;
+}
+
+bool attached(const SoftBody& b, std::uint32_t particle) {
+    for (const Attachment& a : b.attachments)
+        if (a.particle == particle) return true;
+    return false;
+}
+
+}  // namespace
+
+extern "C" {
+
+sinew_soft_def sinew_soft_def_default(void) {
+    const SoftBodyDef b;
+    const LinkMaterial m;
+    sinew_soft_def d;
+    d.method = SINEW_SOFT_VERLET;
+    d.iterations = b.iterations;
+    d.drag = float(b.drag);
+    d.friction = float(b.friction);
+    d.restitution = float(b.restitution);
+    d.thickness = float(b.thickness);
+    d.pressure = float(b.pressure);
+    d.long_range_attachments = b.long_range_attachments ? 1 : 0;
+    d.links = {float(m.stretch), float(m.shear), float(m.bend), float(m.damping), float(m.fraction)};
+    d.total_mass = 1;
+    d.velocity = to_c(b.initial_velocity);
+    d.gravity_scale = float(b.gravity_scale);
+    d.allow_sleep = b.allow_sleep ? 1 : 0;
+    d.user_data = 0;
+    return d;
+}
+
+sinew_cloth_def sinew_cloth_def_default(void) {
+    const ClothGridDesc c;
+    sinew_cloth_def d;
+    d.nx = 16;
+    d.ny = 16;
+    d.origin = to_c(c.origin);
+    d.edge_u = to_c(c.edge_u);
+    d.edge_v = to_c(c.edge_v);
+    d.shear = c.shear ? 1 : 0;
+    d.bend = c.bend ? 1 : 0;
+    d.pinned_corners = 0;
+    return d;
+}
+
+sinew_status sinew_soft_create_cloth(sinew_world_id world, const sinew_soft_def* def, const sinew_cloth_def* cloth,
+                                     sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_cloth";
+    return guarded(fn, [&] {
+        if (!cloth) return null_arg(fn, "cloth");
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        const sinew_cloth_def& c = *cloth;
+        if (c.nx < 2 || c.nx > 4096) return invalid(fn, "cloth->nx = " + std::to_string(c.nx) + " must be in [2, 4096]");
+        if (c.ny < 2 || c.ny > 4096) return invalid(fn, "cloth->ny = " + std::to_string(c.ny) + " must be in [2, 4096]");
+        if (!finite(c.origin)) return invalid(fn, "cloth->origin = " + vec_text(c.origin) + " must be finite");
+        if (!finite(c.edge_u)) return invalid(fn, "cloth->edge_u = " + vec_text(c.edge_u) + " must be finite");
+        if (!finite(c.edge_v)) return invalid(fn, "cloth->edge_v = " + vec_text(c.edge_v) + " must be finite");
+        const Vec3 u = to_vec(c.edge_u), v = to_vec(c.edge_v);
+        // Parallel or zero edges make zero-area triangles and zero-length links.
+        if (!(u.cross(v).norm() > Real(1e-6) * u.norm() * v.norm()) || u.norm() == 0 || v.norm() == 0)
+            return invalid(fn, "cloth->edge_u = " + vec_text(c.edge_u) + " and cloth->edge_v = " + vec_text(c.edge_v) +
+                                   " must be non-zero and not parallel");
+        if (c.shear != 0 && c.shear != 1) return invalid(fn, "cloth->shear = " + std::to_string(c.shear) + " must be 0 or 1");
+        if (c.bend != 0 && c.bend != 1) return invalid(fn, "cloth->bend = " + std::to_string(c.bend) + " must be 0 or 1");
+        if (c.pinned_corners < 0 || c.pinned_corners > 15)
+            return invalid(fn, "cloth->pinned_corners = " + std::to_string(c.pinned_corners) +
+                                   " must combine SINEW_CLOTH_PIN_* flags (0 to 15)");
+        ClothGridDesc g;
+        g.nx = c.nx;
+        g.ny = c.ny;
+        g.origin = to_vec(c.origin);
+        g.edge_u = u;
+        g.edge_v = v;
+        g.total_mass = Real(def->total_mass);
+        g.shear = c.shear == 1;
+        g.bend = c.bend == 1;
+        g.material = link_material(*def);
+        SoftBodyDef d = make_cloth_grid(g, base_def(*def));
+        const int corner_i[4] = {0, g.nx - 1, 0, g.nx - 1}, corner_j[4] = {0, 0, g.ny - 1, g.ny - 1};
+        for (int k = 0; k < 4; ++k)
+            if (c.pinned_corners & (1 << k)) d.pinned.push_back(cloth_node(g, corner_i[k], corner_j[k]));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_create_rope(sinew_world_id world, const sinew_soft_def* def, sinew_vec3 from, sinew_vec3 to,
+                                    int segments, sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_rope";
+    return guarded(fn, [&] {
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        if (!finite(from)) return invalid(fn, "from = " + vec_text(from) + " must be finite");
+        if (!finite(to)) return invalid(fn, "to = " + vec_text(to) + " must be finite");
+        if (!((to_vec(to) - to_vec(from)).norm() > 0)) return invalid(fn, "from and to are the same point " + vec_text(to));
+        if (segments < 1 || segments > 100000)
+            return invalid(fn, "segments = " + std::to_string(segments) + " must be in [1, 100000]");
+        SoftBodyDef d = make_rope(to_vec(from), to_vec(to), segments, Real(def->total_mass), link_material(*def), base_def(*def));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_create_icosphere(sinew_world_id world, const sinew_soft_def* def, sinew_vec3 center,
+                                         float radius, int subdivisions, sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_icosphere";
+    return guarded(fn, [&] {
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        if (!finite(center)) return invalid(fn, "center = " + vec_text(center) + " must be finite");
+        if (!(std::isfinite(radius) && radius > 0)) return invalid(fn, "radius = " + to_text(radius) + " must be finite and > 0 (m)");
+        if (subdivisions < 0 || subdivisions > 6)
+            return invalid(fn, "subdivisions = " + std::to_string(subdivisions) + " must be in [0, 6]");
+        SoftBodyDef d = make_icosphere(to_vec(center), Real(radius), subdivisions, Real(def->total_mass),
+                                       link_material(*def), base_def(*def));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_create_mesh(sinew_world_id world, const sinew_soft_def* def, const sinew_vec3* vertices,
+                                    int vertex_count, const uint32_t* indices, int index_count, int link_distance,
+                                    sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_mesh";
+    return guarded(fn, [&] {
+        if (!vertices) return null_arg(fn, "vertices");
+        if (!indices) return null_arg(fn, "indices");
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        if (vertex_count < 1) return invalid(fn, "vertex_count = " + std::to_string(vertex_count) + " must be > 0");
+        if (index_count < 3 || index_count % 3 != 0)
+            return invalid(fn, "index_count = " + std::to_string(index_count) + " must be a positive multiple of 3");
+        if (link_distance < 1 || link_distance > 3)
+            return invalid(fn, "link_distance = " + std::to_string(link_distance) + " must be in [1, 3]");
+        std::vector<Vec3> v(static_cast<std::size_t>(vertex_count));
+        for (int i = 0; i < vertex_count; ++i) {
+            if (!finite(vertices[i]))
+                return invalid(fn, "vertices[" + std::to_string(i) + "] = " + vec_text(vertices[i]) + " must be finite");
+            v[static_cast<std::size_t>(i)] = to_vec(vertices[i]);
+        }
+        std::vector<std::uint32_t> idx(indices, indices + index_count);
+        for (int k = 0; k < index_count; ++k)
+            if (idx[static_cast<std::size_t>(k)] >= static_cast<std::uint32_t>(vertex_count))
+                return invalid(fn, "indices[" + std::to_string(k) + "] = " + std::to_string(idx[static_cast<std::size_t>(k)]) +
+                                       " is out of range (" + std::to_string(vertex_count) + " vertices)");
+        // Degenerate triangles are the builder's to find (SoftError names the triangle).
+        SoftBodyDef d = make_mesh_body(v, idx, link_distance, Real(def->total_mass), link_material(*def), base_def(*def));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_destroy(sinew_soft_body_id body) {
+    const char* fn = "sinew_soft_destroy";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->soft().destroy_body(t.body);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_particle_count(sinew_soft_body_id body, int* out) {
+    const char* fn = "sinew_soft_particle_count";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = static_cast<int>(t.world->soft().body(t.body).p.size());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_get_positions(sinew_soft_body_id body, sinew_vec3* positions, int capacity, int* count) {
+    const char* fn = "sinew_soft_get_positions";
+    return guarded(fn, [&] {
+        if (!count) return null_arg(fn, "count");
+        if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+        if (!positions && capacity > 0) return null_arg(fn, "positions");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        const std::vector<Vec3>& x = t.world->soft().body(t.body).p.x;
+        const std::size_t n = std::min(x.size(), static_cast<std::size_t>(capacity));
+        for (std::size_t i = 0; i < n; ++i) positions[i] = to_c(x[i]);
+        *count = static_cast<int>(n);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_set_pinned(sinew_soft_body_id body, int particle, int pinned) {
+    const char* fn = "sinew_soft_set_pinned";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (sinew_status s = check_particle(t, particle, fn)) return s;
+        if (pinned != 0 && pinned != 1) return invalid(fn, "pinned = " + std::to_string(pinned) + " must be 0 or 1");
+        const std::uint32_t i = static_cast<std::uint32_t>(particle);
+        if (attached(t.world->soft().body(t.body), i))
+            return invalid(fn, "particle = " + std::to_string(particle) + " is attached to a rigid body; detach it first");
+        t.world->soft().set_pinned(t.body, i, pinned == 1);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_attach(sinew_soft_body_id body, int particle, sinew_body_id rigid_body, sinew_vec3 local_point) {
+    const char* fn = "sinew_soft_attach";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (sinew_status s = check_particle(t, particle, fn)) return s;
+        if (rigid_body.world != body.world)
+            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": rigid_body {index " + std::to_string(rigid_body.index) +
+                                                  ", generation " + std::to_string(rigid_body.generation) +
+                                                  "} belongs to world " + std::to_string(rigid_body.world) +
+                                                  ", not to the soft body's world " + std::to_string(body.world));
+        const BodyId rb{rigid_body.index, rigid_body.generation};
+        if (!t.world->rigid().valid(rb))
+            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": rigid_body {index " + std::to_string(rigid_body.index) +
+                                                  ", generation " + std::to_string(rigid_body.generation) +
+                                                  "} is null or destroyed");
+        if (!finite(local_point)) return invalid(fn, "local_point = " + vec_text(local_point) + " must be finite");
+        SoftBody& b = t.world->soft().body(t.body);
+        const std::uint32_t i = static_cast<std::uint32_t>(particle);
+        Attachment* slot = nullptr;
+        for (Attachment& a : b.attachments)
+            if (a.particle == i) slot = &a;
+        if (!slot) {
+            b.attachments.emplace_back();  // may throw bad_alloc: nothing else has changed yet
+            slot = &b.attachments.back();
+        }
+        *slot = Attachment{};
+        slot->particle = i;
+        slot->target = pack_body_id(rb);
+        slot->local_point = to_vec(local_point);
+        // Kinematic from now on: the coupling layer writes the frame before the next soft step, which
+        // moves the particle onto the point (soft/soft_system.cpp follow_attachments).
+        b.p.inv_mass[i] = 0;
+        b.p.v[i].setZero();
+        t.world->soft().wake(t.body);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_detach(sinew_soft_body_id body, int particle) {
+    const char* fn = "sinew_soft_detach";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (sinew_status s = check_particle(t, particle, fn)) return s;
+        SoftBody& b = t.world->soft().body(t.body);
+        const std::uint32_t i = static_cast<std::uint32_t>(particle);
+        if (!attached(b, i)) return invalid(fn, "particle = " + std::to_string(particle) + " is not attached");
+        for (std::size_t k = 0; k < b.attachments.size(); ++k)
+            if (b.attachments[k].particle == i) {
+                b.attachments.erase(b.attachments.begin() + static_cast<std::ptrdiff_t>(k));
+                break;
+            }
+        t.world->soft().set_pinned(t.body, i, false);  // free again; also wakes the body
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_set_particle_position(sinew_soft_body_id body, int particle, sinew_vec3 position) {
+    const char* fn = "sinew_soft_set_particle_position";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (sinew_status s = check_particle(t, particle, fn)) return s;
+        if (!finite(position)) return invalid(fn, "position = " + vec_text(position) + " must be finite");
+        t.world->soft().set_particle_position(t.body, static_cast<std::uint32_t>(particle), to_vec(position));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_apply_particle_force(sinew_soft_body_id body, int particle, sinew_vec3 force) {
+    const char* fn = "sinew_soft_apply_particle_force";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (sinew_status s = check_particle(t, particle, fn)) return s;
+        if (!finite(force)) return invalid(fn, "force = " + vec_text(force) + " must be finite");
+        t.world->soft().apply_particle_force(t.body, static_cast<std::uint32_t>(particle), to_vec(force));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_user_data(sinew_soft_body_id body, uint64_t* out) {
+    const char* fn = "sinew_soft_user_data";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = t.world->soft().body(t.body).def.user_data;
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_soft_body_count(sinew_world_id world, int* out) {
+    const char* fn = "sinew_world_soft_body_count";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        *out = static_cast<int>(w->soft().body_count());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_id* ids, int capacity, int* count) {
+    const char* fn = "sinew_world_get_soft_bodies";
+    return guarded(fn, [&] {
+        if (!count) return null_arg(fn, "count");
+        if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+        if (!ids && capacity > 0) return null_arg(fn, "ids");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        const SoftSystem& s = w->soft();
+        int n = 0;
+        for (std::uint32_t slot = 0; slot < s.slot_count() && n < capacity; ++slot) {
+            if (!s.slot_alive(slot)) continue;
+            const SoftBodyId id = s.id_of_slot(slot);
+            ids[n++] = {pack_world(world), id.index, id.generation};
+        }
+        *count = n;
+        return SINEW_OK;
+    });
+}
+
+}  // extern "C"

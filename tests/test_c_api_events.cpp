@@ -1,0 +1,214 @@
+// The C API's events after a step: contact begin/end (with point, normal and impulse), sleep/wake of
+// rigid bodies, joint breaks (tests/test_c_api_joints.cpp), in a deterministic order, checked against
+// what the physics of a dropped box says must happen and when.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <vector>
+
+#include "tests/test_c_api_util.hpp"
+
+using namespace capi_test;
+
+namespace {
+
+constexpr float kG = 9.81f;
+constexpr float kH = 1.0f / 60;
+
+sinew_body_id add_ground(sinew_world_id w) {
+    sinew_body_def g = sinew_body_def_default();
+    g.type = SINEW_BODY_STATIC;
+    g.shape.half_extents = {10, 0.5f, 10};
+    g.transform.p = {0, -0.5f, 0};  // top face at y = 0
+    sinew_body_id id;
+    REQUIRE(sinew_body_create(w, &g, &id) == SINEW_OK);
+    return id;
+}
+
+sinew_body_id add_box(sinew_world_id w, sinew_vec3 at) {
+    sinew_body_def b = sinew_body_def_default();
+    b.mass = 1;
+    b.transform.p = at;
+    sinew_body_id id;
+    REQUIRE(sinew_body_create(w, &b, &id) == SINEW_OK);
+    return id;
+}
+
+sinew_events step_events(sinew_world_id w) {
+    REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    sinew_events e;
+    REQUIRE(sinew_world_get_events(w, &e) == SINEW_OK);
+    REQUIRE(e.dropped == 0);
+    return e;
+}
+
+bool same(const sinew_body_id& a, const sinew_body_id& b) {
+    return a.world == b.world && a.index == b.index && a.generation == b.generation;
+}
+
+}  // namespace
+
+TEST_CASE("C API events: a dropped box begins touching once, falls asleep once, and leaves when kicked", "[capi][events]") {
+    // Split impulses: the stored contact impulse is the step's (the soft-step solver keeps per-sub-step
+    // impulses, see sinew.h), so the landing impulse can be checked against the momentum it removes.
+    sinew_world_def wd = sinew_world_def_default();
+    wd.solver = SINEW_SOLVER_SPLIT_IMPULSE;
+    sinew_world_id w;
+    REQUIRE(sinew_world_create(&wd, &w) == SINEW_OK);
+    const sinew_body_id ground = add_ground(w);
+    const sinew_body_id box = add_box(w, {0, 1.5f, 0});  // bottom face 1 m above the ground
+    int begins = 0, ends = 0, sleeps = 0, begin_step = -1, sleep_step = -1;
+    sinew_vec3 v_before{0, 0, 0};
+    for (int i = 1; i <= 120; ++i) {
+        sinew_vec3 v_now;
+        REQUIRE(sinew_body_get_velocity(box, &v_now, nullptr) == SINEW_OK);
+        if (begins == 0) v_before = v_now;
+        const sinew_events e = step_events(w);
+        for (int k = 0; k < e.contact_begin_count; ++k) {
+            const sinew_contact_begin_event& c = e.contact_begin[k];
+            ++begins;
+            begin_step = int(c.step);
+            CHECK(c.step == uint64_t(i));
+            CHECK(same(c.body_a, ground));  // lower slot first
+            CHECK(same(c.body_b, box));
+            // The normal points from A (ground) to B (the box).
+            CHECK(c.normal.y == Approx(1.0).margin(1e-3));
+            // The point lies midway between the surfaces, which are at most one step's travel apart
+            // (h v = 0.074 m at 4.4 m/s, plus the 0.02 m margin): |y| < 0.05 m.
+            CHECK(std::abs(c.point.y) < 0.05f);
+            // Restitution 0: the contact stops the 1 kg box, removing its momentum m |v| and this
+            // step's gravity m g h; 1 % covers the solver's iterations.
+            CHECK(c.normal_impulse == Approx(std::abs(v_before.y) + kG * kH).epsilon(0.01));
+        }
+        ends += e.contact_end_count;
+        for (int k = 0; k < e.sleep_count; ++k) {
+            ++sleeps;
+            sleep_step = int(e.sleep[k].step);
+            CHECK(same(e.sleep[k].body, box));
+            CHECK(e.sleep[k].awake == 0);
+        }
+    }
+    CHECK(begins == 1);
+    CHECK(ends == 0);  // a resting contact persists (its manifold is kept while asleep)
+    CHECK(sleeps == 1);
+    // Free fall over 1 m takes sqrt(2 / g) = 0.4515 s = 27.1 steps; the speculative contact is found up
+    // to two steps early.
+    CHECK(begin_step >= 25);
+    CHECK(begin_step <= 28);
+    // Asleep after resting for sleep_time = 0.5 s = 30 steps, the landing step (which stops it) included.
+    CHECK(sleep_step >= begin_step + 29);
+    CHECK(sleep_step <= begin_step + 31);
+
+    // A kick from the game wakes the box: not an event (only what a step does is reported) ...
+    REQUIRE(sinew_body_apply_impulse(box, {0, 5, 0}, {0, 1, 0}) == SINEW_OK);
+    sinew_events e = step_events(w);
+    CHECK(e.sleep_count == 0);
+    // ... it rises 5^2 / (2 g) = 1.27 m and lands 1.02 s later: the contact ends, then begins again.
+    int end_step = -1;
+    begin_step = -1;
+    for (int i = 0; i < 90; ++i) {
+        e = step_events(w);
+        if (e.contact_end_count == 1 && end_step < 0) {
+            end_step = int(e.contact_end[0].step);
+            CHECK(same(e.contact_end[0].body_a, ground));
+            CHECK(same(e.contact_end[0].body_b, box));
+        }
+        if (e.contact_begin_count == 1 && end_step >= 0 && begin_step < 0) begin_step = int(e.contact_begin[0].step);
+    }
+    CHECK(end_step > 0);
+    // Time in the air: 2 v / g = 1.02 s = 61 steps, less the speculative steps at either end.
+    CHECK(begin_step - end_step == Approx(61).margin(4));
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+TEST_CASE("C API events: a box landing on a sleeping one wakes it during the step", "[capi][events]") {
+    sinew_world_id w = make_world();
+    add_ground(w);
+    const sinew_body_id lower = add_box(w, {0, 0.5f, 0});
+    for (int i = 0; i < 60; ++i) step_events(w);
+    sinew_vec3 v;
+    // Asleep (velocity zeroed) after 0.5 s at rest.
+    REQUIRE(sinew_body_get_velocity(lower, &v, nullptr) == SINEW_OK);
+    CHECK(v.y == 0.0f);
+    const sinew_body_id upper = add_box(w, {0, 2.0f, 0});  // 0.5 m above the lower box
+    int wakes = 0;
+    for (int i = 0; i < 30; ++i) {
+        const sinew_events e = step_events(w);
+        for (int k = 0; k < e.sleep_count; ++k) {
+            if (e.sleep[k].awake == 1) {
+                ++wakes;
+                CHECK(same(e.sleep[k].body, lower));
+            }
+        }
+        for (int k = 0; k < e.contact_begin_count; ++k) {
+            CHECK(same(e.contact_begin[k].body_a, lower));
+            CHECK(same(e.contact_begin[k].body_b, upper));
+        }
+    }
+    CHECK(wakes == 1);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+TEST_CASE("C API events: one call's events span its fixed steps, in order, and identical runs agree", "[capi][events]") {
+    auto build = [] {
+        sinew_world_id w = make_world();
+        add_ground(w);
+        for (int i = 0; i < 12; ++i)  // a loose heap: boxes dropped with offsets, many pairs
+            add_box(w, {0.3f * float(i % 3) - 0.3f, 1.0f + 1.2f * float(i), 0.25f * float(i % 2)});
+        return w;
+    };
+    sinew_world_id a = build(), b = build();
+    int total = 0;
+    for (int frame = 0; frame < 40; ++frame) {
+        int sa = 0, sb = 0;
+        REQUIRE(sinew_world_step(a, 5 * kH, &sa, nullptr) == SINEW_OK);  // about 5 fixed steps a call
+        REQUIRE(sinew_world_step(b, 5 * kH, &sb, nullptr) == SINEW_OK);
+        REQUIRE(sa == sb);
+        sinew_events ea, eb;
+        REQUIRE(sinew_world_get_events(a, &ea) == SINEW_OK);
+        REQUIRE(sinew_world_get_events(b, &eb) == SINEW_OK);
+        REQUIRE(ea.contact_begin_count == eb.contact_begin_count);
+        REQUIRE(ea.contact_end_count == eb.contact_end_count);
+        REQUIRE(ea.sleep_count == eb.sleep_count);
+        total += ea.contact_begin_count + ea.contact_end_count + ea.sleep_count;
+        for (int k = 0; k < ea.contact_begin_count; ++k) {
+            const sinew_contact_begin_event &x = ea.contact_begin[k], &y = eb.contact_begin[k];
+            CHECK(x.body_a.index == y.body_a.index);
+            CHECK(x.body_b.index == y.body_b.index);
+            CHECK(x.step == y.step);
+            CHECK(x.point.x == y.point.x);  // bit for bit: the same computation
+            CHECK(x.normal_impulse == y.normal_impulse);
+            CHECK(x.body_a.index < x.body_b.index);
+            if (k > 0) {  // step order, then pair order within a step
+                const sinew_contact_begin_event& p = ea.contact_begin[k - 1];
+                CHECK((p.step < x.step || (p.step == x.step && (p.body_a.index < x.body_a.index ||
+                                                               (p.body_a.index == x.body_a.index &&
+                                                                p.body_b.index < x.body_b.index)))));
+            }
+        }
+        for (int k = 0; k < ea.sleep_count; ++k) {
+            CHECK(ea.sleep[k].body.index == eb.sleep[k].body.index);
+            CHECK(ea.sleep[k].step == eb.sleep[k].step);
+            if (k > 0) CHECK(ea.sleep[k - 1].step <= ea.sleep[k].step);
+        }
+    }
+    CHECK(total > 12);  // every box lands at least once
+    REQUIRE(sinew_world_destroy(a) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(b) == SINEW_OK);
+}
+
+TEST_CASE("C API events: bad input", "[capi][events][errors]") {
+    sinew_world_id w = make_world();
+    sinew_events e;
+    CHECK(sinew_world_get_events(w, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("out is NULL"));
+    CHECK(sinew_world_get_events(sinew_world_id{}, &e) == SINEW_ERROR_STALE_ID);
+    // Before any step: empty arrays.
+    REQUIRE(sinew_world_get_events(w, &e) == SINEW_OK);
+    CHECK(e.contact_begin_count == 0);
+    CHECK(e.sleep_count == 0);
+    CHECK(e.joint_break_count == 0);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+    CHECK(sinew_world_get_events(w, &e) == SINEW_ERROR_STALE_ID);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("destroyed"));
+}

@@ -1,0 +1,245 @@
+// The host hooks of the C API: the log callback receives every failure (and warnings, info), the
+// allocator serves the C API's per-world buffers and nothing leaks through it, a steady game loop
+// allocates nothing through it, and the threading contract holds (worlds on different threads, a
+// per-thread last error).
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <cstdlib>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/test_c_api_util.hpp"
+
+using namespace capi_test;
+
+namespace {
+
+struct LogLine {
+    sinew_log_level level;
+    std::string text;
+};
+void collect(sinew_log_level level, const char* message, void* user) {
+    static_cast<std::vector<LogLine>*>(user)->push_back({level, message});
+}
+
+struct Counting {
+    std::atomic<long> allocs{0}, frees{0}, bytes{0}, misaligned{0};
+    std::atomic<bool> refuse{false};
+};
+void* counting_alloc(size_t size, size_t alignment, void* user) {
+    Counting& c = *static_cast<Counting*>(user);
+    if (c.refuse) return nullptr;
+    void* p = std::aligned_alloc(alignment < sizeof(void*) ? sizeof(void*) : alignment,
+                                 (size + 15) / 16 * 16);
+    if (reinterpret_cast<std::uintptr_t>(p) % alignment != 0) ++c.misaligned;
+    ++c.allocs;
+    c.bytes += long(size);
+    return p;
+}
+void counting_free(void* p, size_t size, void* user) {
+    Counting& c = *static_cast<Counting*>(user);
+    ++c.frees;
+    c.bytes -= long(size);
+    std::free(p);
+}
+
+/// A ground and a column of `n` unit boxes.
+sinew_world_id stack_world(int n) {
+    sinew_world_id w = make_world();
+    sinew_body_def g = sinew_body_def_default();
+    g.type = SINEW_BODY_STATIC;
+    g.shape.half_extents = {10, 0.5f, 10};
+    g.transform.p = {0, -0.5f, 0};
+    sinew_body_id id;
+    REQUIRE(sinew_body_create(w, &g, &id) == SINEW_OK);
+    for (int i = 0; i < n; ++i) {
+        sinew_body_def b = sinew_body_def_default();
+        b.mass = 1;
+        b.transform.p = {0, 0.5f + float(i), 0};
+        REQUIRE(sinew_body_create(w, &b, &id) == SINEW_OK);
+    }
+    return w;
+}
+
+}  // namespace
+
+TEST_CASE("C API hooks: every failure reaches the log callback with its level and text", "[capi][hooks]") {
+    std::vector<LogLine> lines;
+    REQUIRE(sinew_set_log_callback(collect, &lines) == SINEW_OK);
+    sinew_world_id w = make_world();
+    CHECK(lines.empty());  // successful calls log nothing
+    sinew_body_def bad = sinew_body_def_default();
+    bad.mass = -1;
+    sinew_body_id id;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    REQUIRE(lines.size() == 1);
+    CHECK(lines[0].level == SINEW_LOG_ERROR);
+    CHECK(lines[0].text == sinew_last_error());
+    CHECK_THAT(lines[0].text, Catch::Contains("def->mass = -1"));
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+
+    // A frame longer than max_steps_per_frame steps: the dropped time is a warning.
+    sinew_world_def d = sinew_world_def_default();
+    d.max_steps_per_frame = 2;
+    REQUIRE(sinew_world_create(&d, &w) == SINEW_OK);
+    lines.clear();
+    int steps = 0;
+    REQUIRE(sinew_world_step(w, 0.5f, &steps, nullptr) == SINEW_OK);
+    CHECK(steps == 2);
+    REQUIRE(lines.size() == 1);
+    CHECK(lines[0].level == SINEW_LOG_WARNING);
+    // 0.5 s asked, 2/60 s simulated, less than a step kept: 0.5 - 2/60 - (remainder) s dropped.
+    CHECK_THAT(lines[0].text, Catch::Contains("max_steps_per_frame = 2") && Catch::Contains("dropped"));
+    lines.clear();
+    REQUIRE(sinew_world_step(w, 1.0f / 60, &steps, nullptr) == SINEW_OK);
+    CHECK(lines.empty());  // a normal frame
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+
+    REQUIRE(sinew_set_log_callback(nullptr, nullptr) == SINEW_OK);
+    CHECK(sinew_world_destroy(w) == SINEW_ERROR_STALE_ID);
+    CHECK(lines.empty());  // removed: no more calls
+}
+
+TEST_CASE("C API hooks: the allocator serves each world's C API buffers and gets every byte back", "[capi][hooks]") {
+    Counting c;
+    sinew_allocator a{counting_alloc, counting_free, &c};
+    REQUIRE(sinew_set_allocator(&a) == SINEW_OK);
+    sinew_world_id w = stack_world(5);
+    REQUIRE(sinew_set_allocator(nullptr) == SINEW_OK);  // later worlds use malloc; this one keeps its hooks
+    CHECK(c.allocs >= 1);  // the world's handle record
+    long at_100 = 0, bytes_100 = 0;
+    for (int i = 1; i <= 300; ++i) {
+        REQUIRE(sinew_world_step(w, 1.0f / 60, nullptr, nullptr) == SINEW_OK);
+        if (i == 100) {
+            at_100 = c.allocs;
+            bytes_100 = c.bytes;
+        }
+    }
+    CHECK(c.allocs > 1);  // event buffers grew through the hooks
+    // A steady game loop (the stack is asleep by step 100) allocates nothing per frame.
+    CHECK(c.allocs == at_100);
+    CHECK(c.bytes == bytes_100);
+    CHECK(c.misaligned == 0);
+    sinew_world_id plain = stack_world(2);  // made after the reset: not through the hooks
+    const long before_plain = c.allocs;
+    REQUIRE(sinew_world_step(plain, 1.0f / 60, nullptr, nullptr) == SINEW_OK);
+    CHECK(c.allocs == before_plain);
+    REQUIRE(sinew_world_destroy(plain) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+    CHECK(c.frees == c.allocs);
+    CHECK(c.bytes == 0);
+}
+
+TEST_CASE("C API hooks: an allocator that fails gives SINEW_ERROR_INTERNAL and no world", "[capi][hooks][errors]") {
+    Counting c;
+    c.refuse = true;
+    sinew_allocator a{counting_alloc, counting_free, &c};
+    REQUIRE(sinew_set_allocator(&a) == SINEW_OK);
+    sinew_world_def d = sinew_world_def_default();
+    sinew_world_id w{5, 5};
+    CHECK(sinew_world_create(&d, &w) == SINEW_ERROR_INTERNAL);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("out of memory"));
+    CHECK(w.index == 5);  // not written
+    CHECK(sinew_world_create_from_scene_file(SINEW_SOURCE_DIR "/demos/scenes/showcase-c-loop.json", &w) ==
+          SINEW_ERROR_INTERNAL);
+    REQUIRE(sinew_set_allocator(nullptr) == SINEW_OK);
+    CHECK(c.bytes == 0);
+
+    sinew_allocator half{counting_alloc, nullptr, &c};
+    CHECK(sinew_set_allocator(&half) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("allocator->free is NULL"));
+    half = {nullptr, counting_free, &c};
+    CHECK(sinew_set_allocator(&half) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("allocator->alloc is NULL"));
+}
+
+TEST_CASE("C API hooks: worlds run on different threads at once; the last error is per thread", "[capi][hooks][threads]") {
+    // The same scene on two threads at once and on this one: the same engine and the same steps give
+    // the same numbers (worlds share no mutable state).
+    // No Catch2 assertions inside the threads (Catch2 v2 is not thread-safe): plain calls, checked after.
+    auto run = [](float* top_y, std::string* error_after) {
+        sinew_world_def d = sinew_world_def_default();
+        sinew_world_id w{};
+        sinew_world_create(&d, &w);
+        sinew_body_def g = sinew_body_def_default();
+        g.type = SINEW_BODY_STATIC;
+        g.shape.half_extents = {10, 0.5f, 10};
+        g.transform.p = {0, -0.5f, 0};
+        sinew_body_id id;
+        sinew_body_create(w, &g, &id);
+        for (int i = 0; i < 4; ++i) {
+            sinew_body_def b = sinew_body_def_default();
+            b.mass = 1;
+            b.transform.p = {0, 0.5f + float(i), 0};
+            sinew_body_create(w, &b, &id);
+        }
+        for (int i = 0; i < 120; ++i) sinew_world_step_fixed(w);
+        sinew_transform xf[5];
+        int n = 0;
+        sinew_world_get_transforms(w, nullptr, xf, 5, &n);
+        *top_y = xf[4].p.y;
+        *error_after = sinew_last_error();  // this thread made no failing call
+        sinew_world_destroy(w);
+    };
+    float y_a = 0, y_b = 0, y_main = 0;
+    std::string err_a = "x", err_b = "x", err_main;
+    // This thread fails a call first: its message must not show up on the others.
+    CHECK(sinew_world_step_fixed(sinew_world_id{}) == SINEW_ERROR_STALE_ID);
+    const std::string mine = sinew_last_error();
+    std::thread ta(run, &y_a, &err_a), tb(run, &y_b, &err_b);
+    ta.join();
+    tb.join();
+    CHECK(sinew_last_error() == mine);  // untouched by the other threads' calls
+    run(&y_main, &err_main);
+    CHECK(err_a.empty());
+    CHECK(err_b.empty());
+    CHECK(y_a == y_main);
+    CHECK(y_b == y_main);
+    CHECK(y_main == Approx(3.5).margin(0.01));  // the top of a 4-box column stands
+}
+
+TEST_CASE("C API hooks: a callback during a step cannot change the stepping world", "[capi][hooks][errors]") {
+    sinew_world_id w = stack_world(1);
+    sinew_world_id other = make_world();
+    sinew_body_id box{};
+    int n = 0;
+    REQUIRE(sinew_world_get_transforms(w, nullptr, nullptr, 0, &n) == SINEW_OK);
+    sinew_body_id ids[2];
+    REQUIRE(sinew_world_get_transforms(w, ids, nullptr, 2, &n) == SINEW_OK);
+    box = ids[1];
+    std::vector<sinew_status> changes;
+    sinew_status read = SINEW_ERROR_INTERNAL, elsewhere = SINEW_ERROR_INTERNAL;
+    int bodies_before = 0;
+    REQUIRE(sinew_world_body_count(w, &bodies_before) == SINEW_OK);
+    run_during_step(w, [&] {
+        const sinew_body_def d = sinew_body_def_default();
+        sinew_body_id out;
+        const sinew_transform t{{0, 9, 0}, {0, 0, 0, 1}};
+        changes = {sinew_body_create(w, &d, &out),
+                   sinew_body_destroy(box),
+                   sinew_body_set_transform(box, &t),
+                   sinew_body_set_velocity(box, {1, 0, 0}, {0, 0, 0}),
+                   sinew_body_apply_force(box, {1, 0, 0}, {0, 0, 0}),
+                   sinew_body_apply_impulse(box, {1, 0, 0}, {0, 0, 0}),
+                   sinew_world_step(w, 0.1f, nullptr, nullptr),
+                   sinew_world_step_fixed(w),
+                   sinew_world_destroy(w)};
+        sinew_transform now;
+        read = sinew_body_get_transform(box, &now);  // reading is allowed
+        elsewhere = sinew_world_step_fixed(other);   // another world is not stepping
+    });
+    REQUIRE(changes.size() == 9);
+    for (sinew_status s : changes) CHECK(s == SINEW_ERROR_IN_STEP);
+    CHECK(read == SINEW_OK);
+    CHECK(elsewhere == SINEW_OK);
+    int bodies_after = 0;
+    REQUIRE(sinew_world_body_count(w, &bodies_after) == SINEW_OK);  // the world is still there
+    CHECK(bodies_after == bodies_before + 2);  // only run_during_step's anchor and bob were added
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(0.5).margin(0.01));  // not moved to y = 9
+    REQUIRE(sinew_world_destroy(other) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
