@@ -312,8 +312,21 @@ void RigidSystem::destroy_joint(JointId id) {
 
 BodyType RigidSystem::type(BodyId id) const { check(id, "type"); return type_[id.index]; }
 Real RigidSystem::mass(BodyId id) const { check(id, "mass"); return mass_[id.index]; }
+Real RigidSystem::linear_damping(BodyId id) const { check(id, "linear_damping"); return linear_damping_[id.index]; }
+Real RigidSystem::angular_damping(BodyId id) const { check(id, "angular_damping"); return angular_damping_[id.index]; }
+Real RigidSystem::gravity_scale(BodyId id) const { check(id, "gravity_scale"); return gravity_scale_[id.index]; }
+bool RigidSystem::allow_sleep(BodyId id) const { check(id, "allow_sleep"); return allow_sleep_[id.index]; }
 const Shape& RigidSystem::shape(BodyId id) const { check(id, "shape"); return shape_[id.index]; }
 const Material& RigidSystem::material(BodyId id) const { check(id, "material"); return material_[id.index]; }
+void RigidSystem::set_material(BodyId id, const Material& m) {
+    check(id, "set_material");
+    if (!(std::isfinite(m.friction) && m.friction >= 0))
+        throw RigidError("set_material: friction must be finite and >= 0, got " + to_text(m.friction));
+    if (!(m.restitution >= 0 && m.restitution <= 1))
+        throw RigidError("set_material: restitution must be in [0, 1], got " + to_text(m.restitution));
+    material_[id.index].friction = m.friction;
+    material_[id.index].restitution = m.restitution;
+}
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
 void RigidSystem::wake(BodyId id) { check(id, "wake"); wake_island(id.index); }
 std::uint64_t RigidSystem::user_data(BodyId id) const { check(id, "user_data"); return user_data_[id.index]; }

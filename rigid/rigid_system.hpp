@@ -79,8 +79,15 @@ public:
     void apply_impulse(BodyId id, const Vec3& impulse, const Vec3& world_point);
     BodyType type(BodyId id) const;
     Real mass(BodyId id) const;
+    Real linear_damping(BodyId id) const;   ///< 1/s, as created
+    Real angular_damping(BodyId id) const;  ///< 1/s, as created
+    Real gravity_scale(BodyId id) const;
+    bool allow_sleep(BodyId id) const;
     const Shape& shape(BodyId id) const;
     const Material& material(BodyId id) const;
+    /// Friction and restitution take effect from the next step (density only matters at creation and
+    /// is kept). Throws RigidError for a negative or non-finite friction or a restitution outside [0, 1].
+    void set_material(BodyId id, const Material& m);
     bool awake(BodyId id) const;
     void wake(BodyId id);
     std::uint64_t user_data(BodyId id) const;

@@ -55,3 +55,19 @@ extern "C" sinew_status sinew_world_create_from_scene_file(const char* path, sin
         return SINEW_OK;
     });
 }
+
+extern "C" sinew_status sinew_world_save_scene(sinew_world_id world, const char* path) {
+    const char* fn = "sinew_world_save_scene";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!path) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": path is NULL");
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        try {
+            save_scene_file(*w, path);
+        } catch (const SceneError& e) {
+            return fail(SINEW_ERROR_SCENE, std::string(fn) + ": " + e.what());
+        }
+        return SINEW_OK;
+    });
+}

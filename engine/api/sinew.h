@@ -290,6 +290,10 @@ SINEW_API sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, f
  *  soft bodies. On a bad file returns SINEW_ERROR_SCENE with the file, the JSON pointer and the problem
  *  in sinew_last_error(), and creates nothing. */
 SINEW_API sinew_status sinew_world_create_from_scene_file(const char* path, sinew_world_id* out);
+/** Writes the world to a scene file that sinew_world_create_from_scene_file() (and `sinew run`) reads
+ *  back into the same world: settings, bodies (named "body-INDEX"), joints, soft bodies (as their current
+ *  particles and links) and velocities. SINEW_ERROR_SCENE if the file cannot be written. */
+SINEW_API sinew_status sinew_world_save_scene(sinew_world_id world, const char* path);
 
 /* ==== Events ========================================================================================
  * Gathered during every fixed step and read after sinew_world_step / sinew_world_step_fixed returns. Each
@@ -347,6 +351,34 @@ typedef struct sinew_events {
 } sinew_events;
 
 SINEW_API sinew_status sinew_world_get_events(sinew_world_id world, sinew_events* out);
+
+/* ---- queries and settings ---------------------------------------------------------------------------- */
+
+typedef struct sinew_ray_hit {
+    sinew_body_id body;  /* the body hit */
+    sinew_vec3 point;    /* m, world: where the segment enters the body */
+    sinew_vec3 normal;   /* unit, world, facing against the ray */
+    float fraction;      /* [0, 1]: point = from + fraction (to - from) */
+} sinew_ray_hit;
+
+/** The closest body the segment from -> to enters (static, kinematic, dynamic; asleep or not). A ray that
+ *  starts inside a solid shape does not hit that shape. *found = 1 and *hit filled, or *found = 0. */
+SINEW_API sinew_status sinew_world_ray_cast(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_ray_hit* hit,
+                                            int* found);
+/** Bodies whose world bounds overlap the box [lo, hi] (lo <= hi on every axis), in creation order. Up to
+ *  capacity ids are written to ids (may be NULL when capacity is 0); *count receives how many overlap,
+ *  which may exceed capacity (call again with a larger buffer). No allocation per call once warm. */
+SINEW_API sinew_status sinew_world_overlap_aabb(sinew_world_id world, sinew_vec3 lo, sinew_vec3 hi, sinew_body_id* ids,
+                                                int capacity, int* count);
+/** Bodies whose shapes overlap or touch `shape` placed at `transform`, as sinew_world_overlap_aabb. */
+SINEW_API sinew_status sinew_world_overlap_shape(sinew_world_id world, const sinew_shape_def* shape,
+                                                 const sinew_transform* transform, sinew_body_id* ids, int capacity,
+                                                 int* count);
+/** Changes the rigid solver and its velocity iterations (1..1000) from the next step. */
+SINEW_API sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, int velocity_iterations);
+SINEW_API sinew_status sinew_world_set_gravity(sinew_world_id world, sinew_vec3 gravity);
+/** Friction (>= 0) and restitution ([0, 1]) of a body, from the next step. */
+SINEW_API sinew_status sinew_body_set_material(sinew_body_id body, float friction, float restitution);
 
 /* ==== Host hooks ==================================================================================== */
 

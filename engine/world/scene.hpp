@@ -51,7 +51,7 @@ struct SceneJoint {
 struct SceneSoftBody {
     std::string name;
     std::string json_path;      ///< "/soft_bodies/2"
-    std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box"
+    std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "explicit"
     ClothGridDesc cloth;        ///< builder == "cloth": the grid as described
     std::vector<std::uint32_t> cloth_pinned_corners;  ///< builder == "cloth": pinned node indices
     Vec3 icosphere_center = Vec3::Zero();  ///< builder == "icosphere"
@@ -62,6 +62,9 @@ struct SceneSoftBody {
     /// Attachments to scene bodies: def.attachments[k].target is filled in by build_world from
     /// attachment_bodies[k] (an index into SceneDesc::bodies).
     std::vector<std::size_t> attachment_bodies;
+    /// builder == "explicit" with "velocities": each particle's initial velocity (m/s), set by build_world
+    /// after creation (pinned and attached particles keep zero). Empty: def.initial_velocity for all.
+    std::vector<Vec3> velocities;
 };
 
 /// A parsed and validated scene.
@@ -83,6 +86,14 @@ constexpr int kSceneVersion = 1;                     ///< highest "version" this
 SceneDesc parse_scene_file(const std::string& path);
 /// Same, from text. Relative paths inside (OBJ meshes) are resolved against origin_name's directory.
 SceneDesc parse_scene_string(const std::string& text, const std::string& origin_name);
+
+/// Writes `world` as a scene file (docs/scene-format.md) that parse_scene_file() reads back into the same
+/// world: settings, every rigid body in slot order (named "body-SLOT"), joints, and soft bodies (builder
+/// "explicit": their current particles, links, surface, pins and attachments). Velocities are saved too.
+/// Throws SceneError naming the path if it cannot be written.
+void save_scene_file(const World& world, const std::string& path);
+/// The same, as JSON text; `name` goes into the "name" key.
+std::string scene_to_json_text(const World& world, const std::string& name);
 
 /// Creates a world with the scene's settings, bodies and joints. Bodies are created in SceneDesc order; if
 /// `ids` is given it receives their ids in that order; joints follow, in order. Throws SceneError (naming

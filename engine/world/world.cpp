@@ -34,6 +34,21 @@ void World::set_time_step(Real h) {
     settings_.time_step = h;
 }
 
+void World::set_gravity(const Vec3& g) {
+    RigidSettings r = rigid_->settings();
+    r.gravity = g;
+    rigid_->set_settings(r);  // validates (RigidError names the value)
+    SoftSettings s = soft_->settings();
+    s.gravity = g;
+    soft_->set_settings(s);
+    settings_.rigid.gravity = g;
+    settings_.soft.gravity = g;
+    // Everything asleep rests under the old gravity: wake it so the new one acts.
+    for (BodyId id : rigid_->bodies())
+        if (rigid_->type(id) == BodyType::Dynamic) rigid_->wake(id);
+    for (SoftBodyId id : soft_->bodies()) soft_->wake(id);
+}
+
 void World::step() {
     struct Guard {
         bool& flag;

@@ -34,6 +34,8 @@ public:
     const WorldSettings& settings() const { return settings_; }
     /// Validates (throws std::invalid_argument naming the field) and applies.
     void set_time_step(Real h);
+    /// The world's gravity (m/s^2) for rigid and soft bodies alike, from the next step; wakes every body.
+    void set_gravity(const Vec3& g);
 
     /// One fixed step of h.
     void step();

@@ -1,0 +1,161 @@
+// C API: ray casts and overlap queries against a world's rigid bodies (rigid/rigid_queries.cpp), and the
+// settings a game changes at run time (solver, gravity, a body's material).
+#include <cmath>
+#include <vector>
+
+#include "engine/api/capi_internal.hpp"
+#include "engine/core/format.hpp"
+
+using namespace sinew;
+using namespace sinew::capi;
+
+namespace {
+
+sinew_status invalid(const char* fn, const std::string& what) {
+    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
+}
+
+// Writes up to capacity ids and the full count.
+sinew_status write_ids(const char* fn, sinew_world_id world, const std::vector<BodyId>& found, sinew_body_id* ids,
+                       int capacity, int* count) {
+    if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+    if (capacity > 0 && !ids) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": ids is NULL");
+    const std::size_t n = std::min(found.size(), std::size_t(capacity));
+    for (std::size_t k = 0; k < n; ++k) ids[k] = {pack_world(world), found[k].index, found[k].generation};
+    *count = static_cast<int>(found.size());
+    return SINEW_OK;
+}
+
+// One scratch list per thread: a query allocates nothing once warm.
+std::vector<BodyId>& scratch() {
+    thread_local std::vector<BodyId> ids;
+    return ids;
+}
+
+}  // namespace
+
+extern "C" {
+
+sinew_status sinew_world_ray_cast(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_ray_hit* hit, int* found) {
+    const char* fn = "sinew_world_ray_cast";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!hit) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": hit is NULL");
+        if (!found) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": found is NULL");
+        if (!finite(from)) return invalid(fn, "from = " + to_text(to_vec(from)) + " must be finite");
+        if (!finite(to)) return invalid(fn, "to = " + to_text(to_vec(to)) + " must be finite");
+        RigidSystem::RayResult r;
+        *found = 0;
+        if (w->rigid().ray_cast(to_vec(from), to_vec(to), r)) {
+            *found = 1;
+            hit->body = {pack_world(world), r.body.index, r.body.generation};
+            hit->point = to_c(r.hit.point);
+            hit->normal = to_c(r.hit.normal);
+            hit->fraction = float(r.hit.fraction);
+        }
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_overlap_aabb(sinew_world_id world, sinew_vec3 lo, sinew_vec3 hi, sinew_body_id* ids,
+                                      int capacity, int* count) {
+    const char* fn = "sinew_world_overlap_aabb";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": count is NULL");
+        if (!finite(lo) || !finite(hi)) return invalid(fn, "lo and hi must be finite");
+        const Aabb box{to_vec(lo), to_vec(hi)};
+        if (!box.valid()) return invalid(fn, "lo = " + to_text(box.lo) + " must be <= hi = " + to_text(box.hi) + " on every axis");
+        std::vector<BodyId>& found = scratch();
+        w->rigid().overlap_aabb(box, found);
+        return write_ids(fn, world, found, ids, capacity, count);
+    });
+}
+
+sinew_status sinew_world_overlap_shape(sinew_world_id world, const sinew_shape_def* shape, const sinew_transform* transform,
+                                       sinew_body_id* ids, int capacity, int* count) {
+    const char* fn = "sinew_world_overlap_shape";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!shape) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": shape is NULL");
+        if (!transform) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": transform is NULL");
+        if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": count is NULL");
+        if (!finite(transform->p)) return invalid(fn, "transform->p must be finite");
+        const sinew_quat& q = transform->q;
+        const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+        if (!(std::isfinite(n2) && n2 > 1e-12f)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
+        Shape s;
+        switch (enum_value(shape->type)) {
+            case SINEW_SHAPE_SPHERE: s = make_sphere(Real(shape->radius)); break;  // ShapeError names the value
+            case SINEW_SHAPE_BOX: s = make_box(to_vec(shape->half_extents)); break;
+            case SINEW_SHAPE_CAPSULE: s = make_capsule(Real(shape->half_height), Real(shape->radius)); break;
+            default:
+                return invalid(fn, "shape->type = " + std::to_string(enum_value(shape->type)) + " is not a sinew_shape_type");
+        }
+        const Transform xf{to_vec(transform->p), to_quat(q).normalized()};
+        std::vector<BodyId>& found = scratch();
+        w->rigid().overlap_shape(s, xf, found);
+        return write_ids(fn, world, found, ids, capacity, count);
+    });
+}
+
+sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, int velocity_iterations) {
+    const char* fn = "sinew_world_set_solver";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        RigidSettings r = w->rigid().settings();
+        switch (enum_value(solver)) {
+            case SINEW_SOLVER_SOFT_STEP:
+                r.solver = RigidSolverKind::SequentialImpulse;
+                r.correction = PositionCorrection::SoftStep;
+                break;
+            case SINEW_SOLVER_SPLIT_IMPULSE:
+                r.solver = RigidSolverKind::SequentialImpulse;
+                r.correction = PositionCorrection::SplitImpulse;
+                break;
+            case SINEW_SOLVER_BAUMGARTE:
+                r.solver = RigidSolverKind::SequentialImpulse;
+                r.correction = PositionCorrection::Baumgarte;
+                break;
+            case SINEW_SOLVER_NEWTON: r.solver = RigidSolverKind::Newton; break;
+            default: return invalid(fn, "solver = " + std::to_string(enum_value(solver)) + " is not a sinew_solver");
+        }
+        r.velocity_iterations = velocity_iterations;
+        w->rigid().set_settings(r);  // RigidError names a bad iteration count; nothing changes then
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_set_gravity(sinew_world_id world, sinew_vec3 gravity) {
+    const char* fn = "sinew_world_set_gravity";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        if (!finite(gravity)) return invalid(fn, "gravity = " + to_text(to_vec(gravity)) + " must be finite");
+        w->set_gravity(to_vec(gravity));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_material(sinew_body_id body, float friction, float restitution) {
+    const char* fn = "sinew_body_set_material";
+    return guarded(fn, [&] {
+        World* w = nullptr;
+        const BodyId id = find_body(body, fn, &w);
+        if (id.is_null()) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        Material m = w->rigid().material(id);
+        m.friction = Real(friction);
+        m.restitution = Real(restitution);
+        w->rigid().set_material(id, m);  // RigidError names the bad value; nothing changes then
+        return SINEW_OK;
+    });
+}
+
+}  // extern "C"

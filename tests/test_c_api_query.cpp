@@ -1,0 +1,188 @@
+// C API queries and run-time settings (engine/api/capi_query.cpp): ray casts and overlaps against closed
+// forms, solver, gravity and material changes with their physical effect, and every bad input rejected
+// with its status, a message and an unchanged world.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "tests/test_c_api_util.hpp"
+
+using namespace capi_test;
+
+namespace {
+
+sinew_body_id add_box(sinew_world_id w, sinew_body_type type, sinew_vec3 p, float half = 0.5f) {
+    sinew_body_def d = sinew_body_def_default();
+    d.type = type;
+    d.transform.p = p;
+    d.shape.half_extents = {half, half, half};
+    sinew_body_id id{};
+    REQUIRE(sinew_body_create(w, &d, &id) == SINEW_OK);
+    return id;
+}
+
+bool same(sinew_body_id a, sinew_body_id b) { return a.world == b.world && a.index == b.index && a.generation == b.generation; }
+
+}  // namespace
+
+TEST_CASE("C API ray casts and overlaps find the bodies closed forms predict", "[capi][query]") {
+    const sinew_world_id w = make_world();
+    const sinew_body_id ground = add_box(w, SINEW_BODY_STATIC, {0, -0.5f, 0});
+    (void)ground;
+    const sinew_body_id a = add_box(w, SINEW_BODY_DYNAMIC, {0, 2, 0});
+    const sinew_body_id b = add_box(w, SINEW_BODY_DYNAMIC, {3, 0.5f, 0});
+
+    // Straight down from y = 10 over box a: enters its top face at y = 2.5.
+    sinew_ray_hit hit;
+    int found = -1;
+    REQUIRE(sinew_world_ray_cast(w, {0, 10, 0}, {0, -10, 0}, &hit, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(same(hit.body, a));
+    CHECK(hit.point.y == Approx(2.5f).margin(1e-5));
+    CHECK(hit.fraction == Approx(7.5f / 20).margin(1e-6));
+    CHECK(hit.normal.y == Approx(1).margin(1e-6));
+    // Sideways at y = 0.5 from x = -10: the ground box's top is at 0, so the first body is b at x = 2.5.
+    REQUIRE(sinew_world_ray_cast(w, {-10, 0.7f, 0}, {10, 0.7f, 0}, &hit, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(same(hit.body, b));
+    CHECK(hit.point.x == Approx(2.5f).margin(1e-5));
+    CHECK(hit.normal.x == Approx(-1).margin(1e-6));
+    // Above everything: no hit.
+    REQUIRE(sinew_world_ray_cast(w, {-10, 5, 0}, {10, 5, 0}, &hit, &found) == SINEW_OK);
+    CHECK(found == 0);
+
+    // Overlap box around a and b, not the ground (its top face is y = 0, the box starts at y = 0.1).
+    sinew_body_id ids[4];
+    int count = -1;
+    REQUIRE(sinew_world_overlap_aabb(w, {-1, 0.1f, -1}, {4, 3, 1}, ids, 4, &count) == SINEW_OK);
+    REQUIRE(count == 2);
+    CHECK(same(ids[0], a));
+    CHECK(same(ids[1], b));
+    // Capacity smaller than the result: the count tells how many there are.
+    REQUIRE(sinew_world_overlap_aabb(w, {-1, 0.1f, -1}, {4, 3, 1}, ids, 1, &count) == SINEW_OK);
+    CHECK(count == 2);
+    REQUIRE(sinew_world_overlap_aabb(w, {-1, 0.1f, -1}, {4, 3, 1}, nullptr, 0, &count) == SINEW_OK);
+    CHECK(count == 2);
+
+    // A sphere of radius 0.6 centred 1 m right of a's centre: a's face is 0.5 m from the centre, so the
+    // gap is 0.5 - 0.6 < 0 (overlap); at 1.2 m the gap is +0.1 (no overlap).
+    sinew_shape_def s{};
+    s.type = SINEW_SHAPE_SPHERE;
+    s.radius = 0.6f;
+    sinew_transform at = {{1, 2, 0}, {0, 0, 0, 1}};
+    REQUIRE(sinew_world_overlap_shape(w, &s, &at, ids, 4, &count) == SINEW_OK);
+    REQUIRE(count == 1);
+    CHECK(same(ids[0], a));
+    at.p.x = 1.2f;
+    REQUIRE(sinew_world_overlap_shape(w, &s, &at, ids, 4, &count) == SINEW_OK);
+    CHECK(count == 0);
+    sinew_world_destroy(w);
+}
+
+TEST_CASE("C API run-time settings change the physics: gravity, solver, material", "[capi][query]") {
+    const sinew_world_id w = make_world();
+    // Gravity: a free body in zero gravity keeps its height (and falls asleep); turned to +9.81 it wakes
+    // and rises by g t^2 / 2.
+    REQUIRE(sinew_world_set_gravity(w, {0, 0, 0}) == SINEW_OK);
+    const sinew_body_id box = add_box(w, SINEW_BODY_DYNAMIC, {0, 5, 0});
+    for (int k = 0; k < 30; ++k) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(5).margin(1e-6));
+    REQUIRE(sinew_world_set_gravity(w, {0, 9.81f, 0}) == SINEW_OK);
+    for (int k = 0; k < 60; ++k) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    // The default soft-step solver integrates 5 sub-steps of h/5 per step (semi-implicit Euler): after
+    // N = 300 sub-steps of 1/300 s, g h_s^2 N (N + 1) / 2 = 9.81 * 301 / 600 = 4.921 m.
+    CHECK(t.p.y - 5 == Approx(9.81 * 301 / 600.0).epsilon(1e-4));
+
+    // Solver: switching to the Newtonian solver and back keeps a resting box at rest.
+    REQUIRE(sinew_world_set_gravity(w, {0, -9.81f, 0}) == SINEW_OK);
+    add_box(w, SINEW_BODY_STATIC, {3, -0.5f, 0});
+    const sinew_body_id rest = add_box(w, SINEW_BODY_DYNAMIC, {3, 0.5f, 0});
+    for (sinew_solver s : {SINEW_SOLVER_NEWTON, SINEW_SOLVER_SPLIT_IMPULSE, SINEW_SOLVER_SOFT_STEP}) {
+        REQUIRE(sinew_world_set_solver(w, s, 8) == SINEW_OK);
+        for (int k = 0; k < 30; ++k) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    }
+    REQUIRE(sinew_body_get_transform(rest, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(0.5f).margin(0.01));  // within the 5 mm slop of any solver, plus margin
+
+    // Material: a box sliding at 2 m/s on the ground stops after v^2 / (2 mu g) with mu = sqrt(mu_a mu_b)
+    // (the rigid system's mixing rule): both set to 0.2 gives 4 / (2 * 0.2 * 9.81) = 1.019 m.
+    sinew_world_id w2 = make_world();
+    sinew_body_def fd = sinew_body_def_default();
+    fd.type = SINEW_BODY_STATIC;
+    fd.shape.half_extents = {10, 0.5f, 2};  // one long floor: no seams for the box's edge to catch on
+    fd.transform.p = {0, -0.5f, 0};
+    sinew_body_id floor{};
+    REQUIRE(sinew_body_create(w2, &fd, &floor) == SINEW_OK);
+    sinew_body_def d = sinew_body_def_default();
+    d.shape.half_extents = {0.5f, 0.5f, 0.5f};
+    d.transform.p = {0, 0.5f, 0};
+    d.linear_velocity = {2, 0, 0};
+    sinew_body_id slider{};
+    REQUIRE(sinew_body_create(w2, &d, &slider) == SINEW_OK);
+    REQUIRE(sinew_body_set_material(floor, 0.2f, 0) == SINEW_OK);
+    REQUIRE(sinew_body_set_material(slider, 0.2f, 0) == SINEW_OK);
+    for (int k = 0; k < 120; ++k) REQUIRE(sinew_world_step_fixed(w2) == SINEW_OK);
+    REQUIRE(sinew_body_get_transform(slider, &t) == SINEW_OK);
+    // 5%: the friction impulse acts per step (the stop lands within one step of 0.0167 s, 1.7 cm).
+    CHECK(t.p.x == Approx(4.0 / (2 * 0.2 * 9.81)).epsilon(0.05));
+    sinew_world_destroy(w2);
+    sinew_world_destroy(w);
+}
+
+TEST_CASE("C API queries and settings reject bad input and leave the world unchanged", "[capi][query][errors]") {
+    const sinew_world_id w = make_world();
+    const sinew_body_id a = add_box(w, SINEW_BODY_DYNAMIC, {0, 2, 0});
+    const std::vector<float> before = fingerprint(w);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    sinew_ray_hit hit;
+    int found = 0, count = 0;
+    sinew_body_id ids[2];
+
+    expect_rejected(w, before, sinew_world_ray_cast(w, {nan, 0, 0}, {0, 0, 0}, &hit, &found), SINEW_ERROR_INVALID_ARGUMENT,
+                    "from = (nan");
+    expect_rejected(w, before, sinew_world_ray_cast(w, {0, 0, 0}, {0, 0, 0}, nullptr, &found), SINEW_ERROR_NULL_ARGUMENT,
+                    "hit is NULL");
+    expect_rejected(w, before, sinew_world_ray_cast(w, {0, 0, 0}, {0, 0, 0}, &hit, nullptr), SINEW_ERROR_NULL_ARGUMENT,
+                    "found is NULL");
+    expect_rejected(w, before, sinew_world_ray_cast(sinew_world_id{99, 7}, {0, 0, 0}, {1, 0, 0}, &hit, &found),
+                    SINEW_ERROR_STALE_ID, "sinew_world_ray_cast");
+    expect_rejected(w, before, sinew_world_overlap_aabb(w, {1, 0, 0}, {0, 1, 1}, ids, 2, &count),
+                    SINEW_ERROR_INVALID_ARGUMENT, "must be <= hi");
+    expect_rejected(w, before, sinew_world_overlap_aabb(w, {0, 0, 0}, {1, 1, 1}, nullptr, 2, &count),
+                    SINEW_ERROR_NULL_ARGUMENT, "ids is NULL");
+    expect_rejected(w, before, sinew_world_overlap_aabb(w, {0, 0, 0}, {1, 1, 1}, ids, -1, &count),
+                    SINEW_ERROR_INVALID_ARGUMENT, "capacity = -1");
+    sinew_shape_def s{};
+    s.type = SINEW_SHAPE_SPHERE;
+    s.radius = -1;
+    sinew_transform at = {{0, 0, 0}, {0, 0, 0, 1}};
+    expect_rejected(w, before, sinew_world_overlap_shape(w, &s, &at, ids, 2, &count), SINEW_ERROR_INVALID_ARGUMENT,
+                    "radius");
+    s.radius = 1;
+    poke(s.type, 17);
+    expect_rejected(w, before, sinew_world_overlap_shape(w, &s, &at, ids, 2, &count), SINEW_ERROR_INVALID_ARGUMENT,
+                    "shape->type = 17");
+    s.type = SINEW_SHAPE_SPHERE;
+    at.q = {0, 0, 0, 0};
+    expect_rejected(w, before, sinew_world_overlap_shape(w, &s, &at, ids, 2, &count), SINEW_ERROR_INVALID_ARGUMENT,
+                    "transform->q");
+
+    sinew_solver bad;
+    poke(bad, 9);
+    expect_rejected(w, before, sinew_world_set_solver(w, bad, 10), SINEW_ERROR_INVALID_ARGUMENT, "solver = 9");
+    expect_rejected(w, before, sinew_world_set_solver(w, SINEW_SOLVER_NEWTON, 0), SINEW_ERROR_INVALID_ARGUMENT,
+                    "velocity_iterations");
+    expect_rejected(w, before, sinew_world_set_gravity(w, {0, nan, 0}), SINEW_ERROR_INVALID_ARGUMENT, "gravity");
+    expect_rejected(w, before, sinew_body_set_material(a, -1, 0), SINEW_ERROR_INVALID_ARGUMENT, "friction");
+    expect_rejected(w, before, sinew_body_set_material(a, 0.5f, 2), SINEW_ERROR_INVALID_ARGUMENT, "restitution");
+    sinew_body_id stale = a;
+    stale.generation += 5;
+    expect_rejected(w, before, sinew_body_set_material(stale, 0.5f, 0), SINEW_ERROR_STALE_ID, "sinew_body_set_material");
+    expect_rejected(w, before, sinew_world_save_scene(w, nullptr), SINEW_ERROR_NULL_ARGUMENT, "path is NULL");
+    sinew_world_destroy(w);
+}
