@@ -162,13 +162,17 @@ TEST_CASE("random scene: pairs and queries equal brute force through moves and r
                 d = Vec3(s.uniform(-8, 8), s.uniform(-8, 8), s.uniform(-8, 8));
             }
             Aabb moved{tight_by_id[id].lo + d, tight_by_id[id].hi + d};
-            const bool escaped = !before.contains(moved);
+            // The tree tests the box swept by the predicted displacement (here d again).
+            Aabb swept = moved;
+            for (int k = 0; k < 3; ++k) (d[k] < 0 ? swept.lo[k] : swept.hi[k]) += d[k];
+            const bool escaped = !before.contains(swept);
             const bool reinsert = s.tree.move(id, moved, d, margin);
             REQUIRE(reinsert == escaped);
             if (reinsert) {
                 ++reinserted;
-                // New fat box: margin on every side plus the displacement on the side it points to.
-                Aabb want = moved.fattened(margin);
+                // New fat box: the swept box, margin on every side, plus the displacement once more on the
+                // side it points to.
+                Aabb want = swept.fattened(margin);
                 for (int k = 0; k < 3; ++k) (d[k] < 0 ? want.lo[k] : want.hi[k]) += d[k];
                 REQUIRE(s.tree.fat_box(id).lo == want.lo);
                 REQUIRE(s.tree.fat_box(id).hi == want.hi);

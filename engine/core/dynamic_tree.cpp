@@ -68,13 +68,23 @@ void DynamicTree::destroy(std::int32_t proxy) {
 bool DynamicTree::move(std::int32_t proxy, const Aabb& box, const Vec3& displacement, Real margin) {
     assert(proxy >= 0 && proxy < static_cast<std::int32_t>(nodes_.size()));
     assert(nodes_[proxy].is_leaf() && nodes_[proxy].height == 0);
+    // The box swept over the coming step: the pair with whatever it will reach must be found now, so a
+    // fast body gets its speculative contact before it penetrates (a box falling at 4.4 m/s sank 3 cm
+    // into the ground when only its current box was tested against a fat box grown at a slower speed).
+    Aabb swept = box;
+    for (int k = 0; k < 3; ++k) {
+        if (displacement[k] < 0)
+            swept.lo[k] += displacement[k];
+        else
+            swept.hi[k] += displacement[k];
+    }
     // Still inside the fat box: the tree is untouched, which is what makes resting bodies free.
-    if (nodes_[proxy].box.contains(box)) return false;
+    if (nodes_[proxy].box.contains(swept)) return false;
 
     remove_leaf(proxy);
-    // Fatten by the margin, then stretch along the predicted motion only (Box2D's displacement
-    // extension): a body moving steadily stays inside its box for several steps.
-    Aabb fat = box.fattened(margin);
+    // Fatten by the margin, then stretch along the predicted motion once more (Box2D's displacement
+    // extension): a body moving steadily stays inside its box for a step or two.
+    Aabb fat = swept.fattened(margin);
     for (int k = 0; k < 3; ++k) {
         if (displacement[k] < 0)
             fat.lo[k] += displacement[k];

@@ -19,8 +19,9 @@ public:
     /// Inserts a proxy with tight box `box`, stored fattened by `margin`. Returns the proxy id.
     std::int32_t create(const Aabb& box, std::uint32_t user_data, Real margin);
     void destroy(std::int32_t proxy);
-    /// Updates a proxy's tight box. Re-inserts (and returns true) only when it escaped its fat box; the
-    /// new fat box is extended by `displacement` (predicted motion) as well as `margin`.
+    /// Updates a proxy's tight box. Re-inserts (and returns true) only when the box swept by
+    /// `displacement` (the predicted motion of the coming step) escaped its fat box; the new fat box is
+    /// that swept box, fattened by `margin` and extended by `displacement` once more.
     bool move(std::int32_t proxy, const Aabb& box, const Vec3& displacement, Real margin);
 
     const Aabb& fat_box(std::int32_t proxy) const { return nodes_[proxy].box; }
