@@ -64,6 +64,11 @@ struct JointDef {
     Real damping_ratio = 0;    ///< >= 0, of the spring (1 = critical)
     /// Break when the constraint force exceeds this (N; torque rows count as N m). 0 = unbreakable.
     Real break_force = 0;
+    /// Hinge, slider, fixed: the relative orientation q_A^-1 q_B at which the joint is at its zero (hinge
+    /// angle 0; the orientation slider and fixed joints keep). All zero (the default) = the bodies'
+    /// relative orientation at creation. JointSet::def() returns the one in use, so a saved scene can
+    /// recreate a joint whose bodies have moved since with the same zero (engine/world/scene_save.cpp).
+    Quat reference_rotation = Quat(0, 0, 0, 0);
     std::uint64_t user_data = 0;
 };
 

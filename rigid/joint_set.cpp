@@ -143,6 +143,17 @@ void validate(const JointDef& d, const RigidSystem& sys) {
         bad(d, "damping_ratio must be finite and >= 0, got " + to_text(d.damping_ratio));
     if (!is_finite(d.break_force) || d.break_force < 0)
         bad(d, "break_force must be finite and >= 0 (0 = unbreakable), got " + to_text(d.break_force));
+    if (!is_finite(d.reference_rotation))
+        bad(d, "reference_rotation must be finite (all zero = the orientation at creation)");
+    const Real n2 = d.reference_rotation.squaredNorm();
+    if (n2 != 0 && !(n2 > Real(1e-12)))
+        bad(d, "reference_rotation must be a unit quaternion, or all zero for the orientation at creation");
+}
+
+/// The reference rotation as a unit quaternion. One that is unit to rounding is kept as it is, so a
+/// rotation read back from a saved scene is the one that was saved, bit for bit.
+Quat unit_rotation(const Quat& q) {
+    return std::abs(q.squaredNorm() - 1) <= 4 * kEpsilon ? q : q.normalized();
 }
 
 /// Centre of mass in the body's own axes, from the origin transform and the state.
@@ -169,7 +180,9 @@ JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
     j.axis_a = has_axis ? Vec3(def.local_axis_a.normalized()) : Vec3::UnitZ();
     if (has_axis) j.def.local_axis_a = j.axis_a;
     tangent_basis(j.axis_a, j.perp_a[0], j.perp_a[1]);
-    j.rel0 = (qa.conjugate() * qb).normalized();
+    j.rel0 = def.reference_rotation.squaredNorm() > 0 ? unit_rotation(def.reference_rotation)
+                                                      : Quat((qa.conjugate() * qb).normalized());
+    j.def.reference_rotation = j.rel0;
     j.axis_b = j.rel0.conjugate() * j.axis_a;
     if (def.type == JointType::Distance) {
         const Real now = (xb.apply(def.local_anchor_b) - xa.apply(def.local_anchor_a)).norm();
@@ -209,6 +222,15 @@ void JointSet::destroy(JointId id) {
 
 bool JointSet::valid(JointId id) const { return impl_->valid(id); }
 std::size_t JointSet::count() const { return impl_->count; }
+
+std::vector<JointId> JointSet::ids() const {
+    const Impl& m = *impl_;
+    std::vector<JointId> out;
+    out.reserve(m.count);
+    for (std::uint32_t s = 0; s < m.joints.size(); ++s)
+        if (m.alive[s]) out.push_back({s, m.generation[s]});
+    return out;
+}
 
 void JointSet::destroy_attached(std::uint32_t slot) {
     Impl& m = *impl_;

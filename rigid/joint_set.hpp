@@ -43,6 +43,8 @@ public:
     void destroy(JointId id);
     bool valid(JointId id) const;
     std::size_t count() const;
+    /// Ids of all live joints in slot order.
+    std::vector<JointId> ids() const;
     /// Removes every joint attached to body slot `slot` (when the body is destroyed).
     void destroy_attached(std::uint32_t slot);
     /// Does a live joint connect the two slots with collide_connected == false? (contact filtering)

@@ -111,7 +111,10 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     if (def.type != BodyType::Static && !def.shape.can_be_dynamic())
         bad(std::string("a ") + shape_type_name(def.shape.type) + " can only belong to a static body");
 
-    Transform pose{def.pose.p, def.pose.q.normalized()};
+    // A rotation that is unit to rounding is kept as given, so that a saved world's comes back bit for
+    // bit (normalising it again may move it by an ulp).
+    const bool unit = std::abs(def.pose.q.squaredNorm() - 1) <= 4 * kEpsilon;
+    Transform pose{def.pose.p, unit ? def.pose.q : Quat(def.pose.q.normalized())};
     MassProperties mp;
     if (def.type == BodyType::Dynamic) {
         try {

@@ -22,6 +22,7 @@ struct RunOptions {
     std::optional<long long> steps;
     std::optional<double> dt;
     std::string record;
+    std::string save;
 };
 
 RunOptions parse_options(const std::vector<std::string>& args) {
@@ -35,6 +36,9 @@ RunOptions parse_options(const std::vector<std::string>& args) {
         } else if (is_option(a, "--record")) {
             o.record = option_value(args, i, "--record");
             if (o.record.empty()) throw UsageError("--record needs a file name");
+        } else if (is_option(a, "--save")) {
+            o.save = option_value(args, i, "--save");
+            if (o.save.empty()) throw UsageError("--save needs a file name");
         } else if (!a.empty() && a[0] == '-') {
             throw UsageError("unknown option '" + a + "'");
         } else if (o.scene.empty()) {
@@ -102,6 +106,7 @@ int run(const std::vector<std::string>& args) {
         if (recorder) recorder->write_frame(*world, static_cast<std::uint64_t>(done));
     }
     if (recorder) recorder->finish();
+    if (!opt.save.empty()) save_scene_file(*world, opt.save);  // SceneError (exit 1) if it cannot be written
 
     const double energy = rigid.kinetic_energy() + soft.kinetic_energy();
     double max_stretch = 1;
@@ -127,7 +132,7 @@ int run(const std::vector<std::string>& args) {
 
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
-    "usage: sinew run SCENE.json [--steps N] [--dt H] [--record FILE]\n"
+    "usage: sinew run SCENE.json [--steps N] [--dt H] [--record FILE] [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
@@ -140,6 +145,8 @@ const Command run_command = {
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md)\n"
+    "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"
+    "                  soft bodies as their particles, velocities; docs/scene-format.md)\n"
     "\n"
     "Exit status: 0 ok, 1 bad scene or unwritable record, 2 bad arguments, 3 the run was not finite.\n"};
 

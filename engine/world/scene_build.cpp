@@ -36,10 +36,20 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         SoftBodyDef def = soft.def;
         for (std::size_t k = 0; k < def.attachments.size(); ++k)
             def.attachments[k].target = pack_body_id(out.at(soft.attachment_bodies[k]));
+        SoftBodyId id;
         try {
-            world->soft().create_body(std::move(def));
+            id = world->soft().create_body(std::move(def));
         } catch (const std::invalid_argument& e) {  // SoftError
             throw SceneError(scene.file, soft.json_path, "soft body \"" + soft.name + "\": " + e.what());
+        }
+        if (!soft.velocities.empty()) {  // per-particle state of a saved body (builder "explicit")
+            // Pinned particles keep zero; attached ones take theirs (their body's point velocity), which
+            // the next step overwrites anyway.
+            Particles& p = world->soft().body(id).p;
+            std::vector<bool> pinned(p.size(), false);
+            for (std::uint32_t i : soft.def.pinned) pinned[i] = true;
+            for (std::size_t i = 0; i < p.size() && i < soft.velocities.size(); ++i)
+                if (!pinned[i]) p.v[i] = soft.velocities[i];
         }
     }
     return world;

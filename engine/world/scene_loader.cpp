@@ -323,6 +323,14 @@ private:
     }
 
     // ---- poses --------------------------------------------------------------------------------------
+    /// [w, x, y, z], finite and not zero; not normalised.
+    static Quat read_quaternion(const Node& quat) {
+        if (!quat.json().is_array() || quat.json().size() != 4) quat.type_error("[w, x, y, z] (an array of 4 numbers)");
+        const Quat q(quat.item(0).real(), quat.item(1).real(), quat.item(2).real(), quat.item(3).real());
+        if (!(q.norm() > Real(1e-6))) quat.fail(quat.name() + " quaternion must not be zero, got " + quat.json().dump());
+        return q;
+    }
+
     static Transform parse_pose(const Node& obj) {
         Transform xf;
         xf.p = read_vec3(obj, "position", Vec3::Zero());
@@ -343,6 +351,13 @@ private:
             if (!(norm > 1e-6) || !std::isfinite(norm))
                 quat->fail("rotation quaternion must not be zero, got " + quat->json().dump());
             xf.q = Quat(Real(c[0] / norm), Real(c[1] / norm), Real(c[2] / norm), Real(c[3] / norm));
+            // One that is unit to the precision of Real already (a saved world's) is taken as written, so
+            // that it comes back bit for bit: RigidSystem::create_body normalises it in Real anyway.
+            const Quat written(static_cast<Real>(c[0]), static_cast<Real>(c[1]), static_cast<Real>(c[2]),
+                               static_cast<Real>(c[3]));
+            double written2 = 0;
+            for (int i = 0; i < 4; ++i) written2 += double(written.coeffs()[i]) * double(written.coeffs()[i]);
+            if (std::abs(written2 - 1) <= 8 * double(kEpsilon)) xf.q = written;
         } else if (euler) {
             xf.q = quat_from_euler_xyz_deg(euler->vec3());
         }
@@ -546,10 +561,13 @@ private:
         const bool has_axis = type == JointType::Hinge || type == JointType::Slider;
         if (has_axis)
             n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force", "axis",
-                          "limit", "motor"});
+                          "limit", "motor", "reference_rotation"});
         else if (type == JointType::Distance)
             n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force",
                           "length", "frequency", "damping_ratio"});
+        else if (type == JointType::Fixed)
+            n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force",
+                          "reference_rotation"});
         else
             n.allow_keys({"type", "body_a", "body_b", "anchor_a", "anchor_b", "collide_connected", "break_force"});
 
@@ -574,6 +592,9 @@ private:
                                                                                 : b.def.pose.apply_inverse(world_a));
         d.collide_connected = read_bool(n, "collide_connected", false);
         d.break_force = read_real(n, "break_force", 0, Range::NonNegative);
+        // The joint's zero as a relative orientation (saved scenes write it: their bodies have moved since
+        // the joint was made). Normalised by the joint set unless it already is unit.
+        if (auto ref = n.find("reference_rotation")) d.reference_rotation = read_quaternion(*ref);
 
         if (has_axis) {
             const Node axis = n.get("axis");

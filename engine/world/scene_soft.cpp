@@ -5,6 +5,7 @@
 
 #include "engine/world/scene_json.hpp"
 #include "soft/soft_builders.hpp"
+#include "soft/soft_integrators.hpp"
 
 namespace sinew::scene_json {
 namespace {
@@ -56,6 +57,8 @@ void parse_material(const Node& body, SoftBodyDef& d) {
 }
 
 Real total_mass(const Node& body) { return read_real(body, "mass", 1, Range::Positive); }
+
+void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out);  // below
 
 // Builds the geometry. Returns the def with geometry filled; SoftError from a builder is reported at the
 // body's path.
@@ -112,10 +115,98 @@ void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef
         out.def = make_particle_ragdoll(b.get("feet").vec3(), checked(b.get("height"), Range::Positive), total_mass(b), base);
     } else if (builder == "stick-box") {
         out.def = make_stick_box(b.get("center").vec3(), b.get("half_extents").vec3(), total_mass(b), base);
+    } else if (builder == "explicit") {
+        build_explicit(b, base, out);
     }
 }
 
-const char* const kBuilders[] = {"cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box"};
+// ---- builder "explicit": the body written out particle by particle (what save_scene_file writes) ----
+
+const std::pair<const char*, LinkKind> kLinkKinds[] = {
+    {"structural", LinkKind::Structural}, {"shear", LinkKind::Shear}, {"bend", LinkKind::Bend}, {"other", LinkKind::Other}};
+
+std::uint32_t particle_index(const Node& n, std::size_t count) {
+    return static_cast<std::uint32_t>(checked_int(n, 0, static_cast<long long>(count) - 1));
+}
+
+// One link object; every bound that SoftSystem::create_body checks is checked here, at its key.
+Link parse_link(const Node& l, std::size_t count) {
+    l.allow_keys({"a", "b", "rest", "stiffness", "damping", "fraction", "min_length", "max_length", "max_iterations",
+                  "kind"});
+    Link k;
+    k.a = particle_index(l.get("a"), count);
+    const Node b = l.get("b");
+    k.b = particle_index(b, count);
+    if (k.a == k.b) b.fail("a link must join two different particles, got a = b = " + std::to_string(k.a));
+    k.rest = checked(l.get("rest"), Range::Positive);
+    k.stiffness = read_real(l, "stiffness", k.stiffness, Range::NonNegative);
+    k.damping = read_real(l, "damping", k.damping, Range::NonNegative);
+    k.fraction = read_real(l, "fraction", k.fraction, Range::UnitInterval);
+    if (k.fraction <= 0) l.get("fraction").fail("fraction must be in (0, 1], got 0");
+    k.min_length = read_real(l, "min_length", k.min_length, Range::NonNegative);
+    k.max_length = read_real(l, "max_length", k.max_length, Range::NonNegative);
+    if (k.max_length < k.min_length) {  // min_length > 0 here, so it was given
+        const Node min = l.get("min_length");
+        if (auto max = l.find("max_length"))
+            max->fail("max_length (" + max->json().dump() + ") must be >= min_length (" + min.json().dump() + ")");
+        min.fail("min_length = " + min.json().dump() + " needs a max_length >= it (the link acts outside "
+                 "[min_length, max_length])");
+    }
+    k.max_iterations = static_cast<std::uint16_t>(read_int(l, "max_iterations", 0, 0, 65535));
+    k.kind = read_enum(l, "kind", k.kind, kLinkKinds);
+    return k;
+}
+
+void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out) {
+    out.def = base;
+    SoftBodyDef& d = out.def;
+    const Node positions = b.get("positions");
+    const std::size_t n = positions.array_size();
+    if (n == 0) positions.fail("positions must hold at least one particle, got an empty array");
+    d.positions.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) d.positions.push_back(positions.item(i).vec3());
+
+    const Node masses = b.get("masses");
+    if (masses.array_size() != n)
+        masses.fail("masses has " + std::to_string(masses.array_size()) + " entries for " + std::to_string(n) +
+                    " positions (one mass per particle)");
+    d.masses.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) d.masses.push_back(checked(masses.item(i), Range::Positive));
+
+    if (auto v = b.find("velocities")) {
+        if (b.find("velocity")) v->fail("give either velocity (one for all particles) or velocities, not both");
+        if (v->array_size() != n)
+            v->fail("velocities has " + std::to_string(v->array_size()) + " entries for " + std::to_string(n) +
+                    " positions (one velocity per particle)");
+        out.velocities.reserve(n);
+        for (std::size_t i = 0; i < n; ++i) out.velocities.push_back(v->item(i).vec3());
+    }
+    if (auto links = b.find("links")) {
+        const std::size_t count = links->array_size();
+        d.links.reserve(count);
+        for (std::size_t k = 0; k < count; ++k) d.links.push_back(parse_link(links->item(k), n));
+    }
+    if (auto tris = b.find("triangles")) {
+        const std::size_t count = tris->array_size();
+        d.triangles.reserve(3 * count);
+        for (std::size_t t = 0; t < count; ++t) {
+            const Node tri = tris->item(t);
+            if (!tri.json().is_array() || tri.json().size() != 3) tri.type_error("[a, b, c] (an array of 3 particle indices)");
+            for (std::size_t c = 0; c < 3; ++c) d.triangles.push_back(particle_index(tri.item(c), n));
+        }
+    }
+    // Matyka's pressure needs a closed surface around positive volume (SoftSystem checks it again).
+    if (d.pressure > 0) {
+        const Node pressure = b.get("material").get("pressure");
+        if (d.triangles.empty()) pressure.fail("pressure needs a closed surface, and the body has no \"triangles\"");
+        const Real volume = enclosed_volume(d.triangles, d.positions);
+        if (!(volume > 0))
+            b.get("triangles").fail("pressure needs a closed outward surface, and these triangles enclose " +
+                                    std::to_string(volume) + " m^3");
+    }
+}
+
+const char* const kBuilders[] = {"cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "explicit"};
 
 }  // namespace
 
@@ -135,8 +226,13 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         if (!known)
             b.get("builder").fail("unknown builder \"" + out.builder + "\" (expected one of: " + one_of(kBuilders) + ")");
         // Keys common to every builder, then the builder's own.
-        std::vector<const char*> keys = {"name", "builder", "method", "mass", "links", "solver", "material",
-                                         "pinned", "attachments", "velocity", "gravity_scale", "allow_sleep"};
+        // An explicit body gives its particles' masses and its links one by one instead of "mass" and a
+        // link material, so for it "links" is the array of links.
+        const bool is_explicit = out.builder == "explicit";
+        std::vector<const char*> keys = {"name", "builder", "method", "solver", "material", "pinned", "attachments",
+                                         "velocity", "gravity_scale", "allow_sleep", "user_data"};
+        if (!is_explicit) keys.insert(keys.end(), {"mass", "links"});
+        if (is_explicit) keys.insert(keys.end(), {"positions", "masses", "velocities", "links", "triangles"});
         if (out.builder == "cloth") keys.insert(keys.end(), {"nodes", "origin", "edge_u", "edge_v", "shear", "bend", "pinned_nodes"});
         if (out.builder == "rope") keys.insert(keys.end(), {"from", "to", "segments"});
         if (out.builder == "icosphere") keys.insert(keys.end(), {"center", "radius", "subdivisions"});
@@ -150,7 +246,8 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
             for (const char* key : keys) ok = ok || it.key() == key;
             if (!ok)
                 b.ctx().fail(b.path() + "/" + pointer_token(it.key()),
-                             "unknown key \"" + it.key() + "\" for a " + out.builder + " soft body (expected one of: " +
+                             "unknown key \"" + it.key() + "\" for " + (is_explicit ? "an " : "a ") + out.builder +
+                                 " soft body (expected one of: " +
                                  one_of(names) + ")");
         }
 
@@ -161,7 +258,11 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         base.initial_velocity = read_vec3(b, "velocity", Vec3::Zero());
         base.gravity_scale = read_real(b, "gravity_scale", 1, Range::Any);
         base.allow_sleep = read_bool(b, "allow_sleep", true);
-        out.links = parse_link_material(b);
+        if (auto n = b.find("user_data")) {
+            if (!n->json().is_number_unsigned()) n->type_error("an integer >= 0");
+            base.user_data = n->json().get<std::uint64_t>();
+        }
+        if (!is_explicit) out.links = parse_link_material(b);
         try {
             build_geometry(b, out.builder, base, out);
         } catch (const SoftError& e) {
