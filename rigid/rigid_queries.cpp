@@ -42,7 +42,7 @@ void RigidSystem::overlap_shape(const Shape& shape, const Transform& xf, std::ve
     if (!is_finite(xf.p) || !is_finite(xf.q))
         throw RigidError("overlap_shape: the query transform must be finite, got " + to_text(xf.p));
     out.clear();
-    ManifoldList manifolds;
+    thread_local ManifoldList manifolds;  // reused: a query allocates nothing once warm
     tree_.query(shape.bounds(xf), [&](std::int32_t proxy) {
         const std::uint32_t slot = tree_.user_data(proxy);
         manifolds.clear();

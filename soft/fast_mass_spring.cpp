@@ -111,6 +111,8 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
         c.inv_d.resize(std::size_t(nf));
         for (int k = 0; k < nf; ++k) c.inv_d[std::size_t(k)] = 1.0 / dvec[k];
     } else {
+        // Nothing free (every particle pinned or attached): no system to solve. The old factor stays in
+        // the cache but is never read: the step runs no local/global iteration while inv_d is empty.
         c.inv_d.clear();
     }
     c.inertia.assign(3 * std::size_t(nf), 0.0);
@@ -217,7 +219,7 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
             for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(rb) + k] += double(l.stiffness) * double(p.x[l.a][k]);
     }
 
-    const int iterations = b.def.iterations;
+    const int iterations = c.inv_d.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
         for (std::size_t j = 0; j < m; ++j) {

@@ -26,14 +26,16 @@ Aabb particle_box(const Particles& p, Real pad) {
 void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& colliders, Real h) {
     colliders_ = &colliders;
     candidates_.clear();
-    pushed_.assign(b.p.size(), Real(0));
     correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
     // Box of where the particles may be at the end of the step: current positions, padded by the
     // furthest a particle moves in one step (speed and gravity) and by the thickness.
     Real vmax2 = 0;
     for (const Vec3& v : b.p.v) vmax2 = std::max(vmax2, v.squaredNorm());
-    const Real reach = std::sqrt(vmax2) * h + b.gravity.norm() * h * h + 2 * b.def.thickness;
+    Real amax = b.gravity.norm();  // largest acceleration: gravity plus the external force per mass
+    for (std::size_t i = 0; i < b.p.size(); ++i)
+        if (b.p.inv_mass[i] > 0) amax = std::max(amax, b.gravity.norm() + b.p.f[i].norm() * b.p.inv_mass[i]);
+    const Real reach = std::sqrt(vmax2) * h + amax * h * h + 2 * b.def.thickness;
     const Aabb box = particle_box(b.p, reach);
     for (std::size_t c = 0; c < colliders.size(); ++c)
         if (colliders[c].box.overlaps(box)) candidates_.push_back(static_cast<std::uint32_t>(c));
@@ -61,7 +63,6 @@ int ParticleCollision::project_positions(SoftBody& b, Real h) {
             const Real t_len = tangential.norm();
             if (t_len > 0) dx -= std::min(Real(1), mu * push / t_len) * tangential;
             x += dx;
-            pushed_[i] += push;
             correction_[i] += dx;
             ++moved;
         }
@@ -90,7 +91,10 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             const Vec3 vs = col.point_velocity(s);
             const Vec3 vrel = v - vs;
             const Real vn = vrel.dot(n);
-            const Real pushed_speed = pushed_[i] / h;  // approach already removed by relaxation pushes
+            // Approach already removed by the relaxation's pushes: the net position correction along this
+            // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle
+            // back in each sweep must not look like an impact).
+            const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
             const bool position_friction = b.def.method == SoftMethod::Verlet;  // done in project_positions
             if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
             Vec3 dv = Vec3::Zero();
@@ -122,6 +126,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             // What the contact did to the particle this step: this pass's velocity change and the
             // position corrections of the relaxation (as a velocity change over h).
             pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
+            correction_[i].setZero();  // counted once, by the particle's first contact
             out.push_back(pc);
         }
     }

@@ -38,11 +38,10 @@ public:
 private:
     const std::vector<Collider>* colliders_ = nullptr;
     std::vector<std::uint32_t> candidates_;
-    /// Per particle: how far project_positions() pushed it out along the normals this step (m), and the
-    /// whole position correction it made (push and friction). A position-based method (Verlet) absorbs
-    /// the approach velocity in these pushes; finish() counts push / h as normal velocity change for
-    /// restitution and reports correction * m / h as part of the contact impulse.
-    std::vector<Real> pushed_;
+    /// Per particle: the net position correction project_positions() made this step (push and friction,
+    /// m). A position-based method (Verlet) absorbs the approach velocity in these pushes; finish() counts
+    /// its normal part over h as normal velocity change (restitution, friction budget) and reports
+    /// correction * m / h in the particle's first contact impulse.
     std::vector<Vec3> correction_;
 };
 

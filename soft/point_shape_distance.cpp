@@ -180,7 +180,8 @@ bool point_shape_distance(const Vec3& point, const Shape& shape, const Transform
         }
         case ShapeType::TriangleMesh: hit = mesh_local(q, *shape.mesh, max_distance, l); break;
         case ShapeType::Compound: {
-            // The child the point is least deep in (or nearest to) decides.
+            // The child with the smallest signed distance decides (the deepest one the point is inside, else
+            // the nearest): the compound is the union of its children.
             for (const CompoundChild& child : *shape.children) {
                 Vec3 s, n;
                 Real d;

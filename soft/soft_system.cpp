@@ -145,8 +145,15 @@ void SoftSystem::set_pinned(SoftBodyId id, std::uint32_t i, bool pinned) {
     check(id, "set_pinned");
     SoftBody& b = bodies_[id.index];
     check_particle(b, i, "set_pinned");
+    for (const Attachment& a : b.attachments)
+        if (a.particle == i)
+            throw SoftError("set_pinned: particle " + std::to_string(i) +
+                            " is attached to a rigid body (its attachment moves it); detach it first");
     b.p.inv_mass[i] = pinned ? Real(0) : Real(1) / b.p.mass[i];
     if (pinned) b.p.v[i].setZero();
+    // Long-range attachments tether to the pins: rebuilt for the new set (outside the step, so the
+    // allocation is fine).
+    if (b.def.long_range_attachments) build_long_range_attachments(b);
     b.awake = true;
     b.sleep_timer = 0;
 }
@@ -190,14 +197,15 @@ void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
 namespace {
 
 // Attached particles follow their rigid point: placed at the end-of-step position with its velocity.
-// Returns true if any moved (which keeps the body awake).
-bool follow_attachments(SoftBody& b) {
+// Returns true if any moved faster than `wake_speed` (which wakes the body: a resting rigid body's
+// solver jitter must not).
+bool follow_attachments(SoftBody& b, Real h, Real wake_speed) {
     bool moved = false;
     for (const Attachment& a : b.attachments) {
         if (!a.frame_valid) continue;
         const Vec3 target = a.frame.apply(a.local_point);
         const Vec3 v = a.frame_v + a.frame_w.cross(target - a.frame_com);
-        if ((target - b.p.x[a.particle]).squaredNorm() > 0 || v.squaredNorm() > 0) moved = true;
+        if ((target - b.p.x[a.particle]).norm() > wake_speed * h || v.norm() > wake_speed) moved = true;
         b.p.x[a.particle] = target;
         b.p.v[a.particle] = v;
     }
@@ -209,10 +217,14 @@ void restore_attachment_velocities(SoftBody& b) {
         if (a.frame_valid) b.p.v[a.particle] = a.frame_v + a.frame_w.cross(b.p.x[a.particle] - a.frame_com);
 }
 
-// A sleeping body wakes when something that can touch it moves.
-bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& colliders) {
-    for (const Collider& c : colliders)
-        if ((c.v.squaredNorm() > 0 || c.w.squaredNorm() > 0) && c.box.overlaps(box)) return true;
+// A sleeping body wakes when something that can touch it moves faster than `wake_speed` (at the
+// corner of its box furthest from its centre of mass, for the rotation).
+bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& colliders, Real wake_speed) {
+    for (const Collider& c : colliders) {
+        if (!c.box.overlaps(box)) continue;
+        const Real reach = (c.box.extent() * Real(0.5)).norm() + (c.box.center() - c.com).norm();
+        if (c.v.norm() + c.w.norm() * reach > wake_speed) return true;
+    }
     return false;
 }
 
@@ -224,9 +236,10 @@ void SoftSystem::integrate_positions(Real h) {
         if (!alive_[s]) continue;
         SoftBody& b = bodies_[s];
         b.gravity = settings_.gravity * b.def.gravity_scale;
-        const bool attachments_moved = follow_attachments(b);
+        const bool attachments_moved = follow_attachments(b, h, settings_.sleep_velocity);
         if (!b.awake) {
-            if (!attachments_moved && !touched_by_moving_collider(bounds(s), colliders_)) continue;
+            if (!attachments_moved && !touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity))
+                continue;
             b.awake = true;
             b.sleep_timer = 0;
         }

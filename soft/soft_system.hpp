@@ -1,10 +1,11 @@
 // The soft-body system: soft bodies in slots with generational handles, run as pipeline stages.
 //
 // Stages (one-way coupling: rigid bodies move soft ones, docs/ARCHITECTURE.md):
-//  - IntegrateVelocities: wake/sleep bookkeeping, attached particles follow their rigid points;
-//  - DetectCollisions, SolveVelocities: nothing yet (two-way layers will put soft contacts there);
-//  - IntegratePositions (after the rigid system's, so colliders hold end-of-step poses): each awake body
-//    is advanced by its method, then projected out of the colliders with friction and restitution, and
+//  - IntegrateVelocities, DetectCollisions, SolveVelocities: nothing yet (two-way layers will put soft
+//    contacts there);
+//  - IntegratePositions (after the rigid system's, so colliders hold end-of-step poses): attached
+//    particles follow their rigid points, sleeping bodies wake if something near them moves, each awake
+//    body is advanced by its method, projected out of the colliders with friction and restitution, and
 //    its contacts recorded; then sleeping.
 #pragma once
 
@@ -59,10 +60,13 @@ public:
     void set_particle_position(SoftBodyId id, std::uint32_t i, const Vec3& x);
     /// Adds a force (N) to particle `i` for the next step; wakes the body.
     void apply_particle_force(SoftBodyId id, std::uint32_t i, const Vec3& f);
-    /// Pins (inverse mass 0) or frees particle `i`.
+    /// Pins (inverse mass 0) or frees particle `i` and rebuilds the body's long-range attachments if it
+    /// has them. Throws SoftError for an attached particle (its attachment decides).
     void set_pinned(SoftBodyId id, std::uint32_t i, bool pinned);
 
-    /// The colliders of this step. A coupling layer (or a test) refills it before IntegratePositions.
+    /// The colliders of this step. A coupling layer (or a test) refills it before IntegratePositions. Their
+    /// shape pointers are valid during the step only (they point into the rigid system, whose arrays may
+    /// move when bodies are created between steps): read colliders from hooks, not between steps.
     std::vector<Collider>& colliders() { return colliders_; }
     const std::vector<Collider>& colliders() const { return colliders_; }
     /// Particle contacts found in the last step, body slot order.

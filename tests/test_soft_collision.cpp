@@ -344,3 +344,43 @@ TEST_CASE("bad soft body definitions are rejected by name and leave the system u
     CHECK(reused.index == gone.index);
     CHECK(reused.generation != gone.generation);
 }
+
+TEST_CASE("changing pins after creation: fast mass-spring with nothing free, LRA rebuilt, attached particles refused", "[soft][errors]") {
+    SoftOnly s;
+    // A fast mass-spring rope that has stepped (its matrix is factored), then has every particle pinned:
+    // nothing is free, the step must solve nothing and leave it where it is.
+    SoftBodyDef base;
+    base.method = SoftMethod::FastMassSpring;
+    base.allow_sleep = false;
+    const SoftBodyId rope = s.soft.create_body(make_rope(Vec3(0, 2, 0), Vec3(1, 2, 0), 4, 1, LinkMaterial{}, base));
+    s.pipeline.step(Real(1) / 60);
+    for (std::uint32_t i = 0; i < 5; ++i) s.soft.set_pinned(rope, i, true);
+    const std::vector<Vec3> held = s.soft.body(rope).p.x;
+    for (int k = 0; k < 5; ++k) s.pipeline.step(Real(1) / 60);
+    for (std::uint32_t i = 0; i < 5; ++i) CHECK(s.soft.body(rope).p.x[i] == held[i]);
+    // Freeing one again: it falls.
+    s.soft.set_pinned(rope, 2, false);
+    for (int k = 0; k < 5; ++k) s.pipeline.step(Real(1) / 60);
+    CHECK(s.soft.body(rope).p.x[2].y() < held[2].y());
+
+    // Long-range attachments follow the pins: a 6 x 6 cloth pinned at two corners has 2 x 34 tethers;
+    // unpinning one corner leaves 35 free particles tethered to the other.
+    ClothGridDesc c;
+    c.nx = c.ny = 6;
+    SoftBodyDef cb;
+    cb.long_range_attachments = true;
+    SoftBodyDef cloth_def = make_cloth_grid(c, cb);
+    cloth_def.pinned = {cloth_node(c, 0, 0), cloth_node(c, 5, 0)};
+    const SoftBodyId cloth = s.soft.create_body(cloth_def);
+    CHECK(s.soft.body(cloth).lra.size() == 2 * 34);
+    s.soft.set_pinned(cloth, cloth_node(c, 5, 0), false);
+    CHECK(s.soft.body(cloth).lra.size() == 35);
+
+    // An attached particle is moved by its attachment: pinning or freeing it is refused by name.
+    SoftBodyDef att = make_rope(Vec3(0, 1, 0), Vec3(1, 1, 0), 2, 1, LinkMaterial{});
+    Attachment a;
+    a.particle = 0;
+    att.attachments.push_back(a);
+    const SoftBodyId hung = s.soft.create_body(att);
+    CHECK_THROWS_WITH(s.soft.set_pinned(hung, 0, false), Catch::Contains("particle 0 is attached to a rigid body"));
+}

@@ -8,6 +8,7 @@
 
 #include "coupling/one_way_coupling.hpp"
 #include "engine/api/capi_internal.hpp"
+#include "soft/soft_integrators.hpp"
 #include "engine/core/format.hpp"
 #include "soft/soft_builders.hpp"
 
@@ -388,6 +389,7 @@ sinew_status sinew_soft_attach(sinew_soft_body_id body, int particle, sinew_body
         // Kinematic from now on: the coupling layer writes the frame before the next soft step, which
         // moves the particle onto the point (soft/soft_system.cpp follow_attachments).
         b.p.inv_mass[i] = 0;
+        if (b.def.long_range_attachments) build_long_range_attachments(b);  // tethers follow the pins
         b.p.v[i].setZero();
         t.world->soft().wake(t.body);
         return SINEW_OK;

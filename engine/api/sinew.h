@@ -291,8 +291,9 @@ SINEW_API sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, f
  *  in sinew_last_error(), and creates nothing. */
 SINEW_API sinew_status sinew_world_create_from_scene_file(const char* path, sinew_world_id* out);
 /** Writes the world to a scene file that sinew_world_create_from_scene_file() (and `sinew run`) reads
- *  back into the same world: settings, bodies (named "body-INDEX"), joints, soft bodies (as their current
- *  particles and links) and velocities. SINEW_ERROR_SCENE if the file cannot be written. */
+ *  back into the same state: settings, bodies (named "body-INDEX"), joints, soft bodies (as their current
+ *  particles and links) and velocities. Sleep states, contact warm-start impulses and solver caches are
+ *  not saved: the reloaded world starts awake and cold. SINEW_ERROR_SCENE if the file cannot be written. */
 SINEW_API sinew_status sinew_world_save_scene(sinew_world_id world, const char* path);
 
 /* ==== Events ========================================================================================
@@ -367,7 +368,7 @@ typedef struct sinew_ray_hit {
  *  starts inside a solid shape does not hit that shape. *found = 1 and *hit filled, or *found = 0. */
 SINEW_API sinew_status sinew_world_ray_cast(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_ray_hit* hit,
                                             int* found);
-/** Bodies whose world bounds overlap the box [lo, hi] (lo <= hi on every axis), in creation order. Up to
+/** Bodies whose world bounds overlap the box [lo, hi] (lo <= hi on every axis), in slot order. Up to
  *  capacity ids are written to ids (may be NULL when capacity is 0); *count receives how many overlap,
  *  which may exceed capacity (call again with a larger buffer). No allocation per call once warm. */
 SINEW_API sinew_status sinew_world_overlap_aabb(sinew_world_id world, sinew_vec3 lo, sinew_vec3 hi, sinew_body_id* ids,

@@ -123,20 +123,30 @@ void DynamicTree::ray_query(const Vec3& from, const Vec3& to, F&& f) const {
     const Vec3 d = to - from;
     const Vec3 inv_d(Real(1) / d.x(), Real(1) / d.y(), Real(1) / d.z());
     Real t_max = 1;
-    std::vector<std::int32_t> stack;
-    stack.reserve(64);
-    stack.push_back(root_);
-    while (!stack.empty()) {
-        const std::int32_t id = stack.back();
-        stack.pop_back();
+    // A fixed stack as in query(): no allocation unless the tree is deeper than any balanced one gets.
+    std::int32_t stack_fixed[128];
+    std::vector<std::int32_t> stack_big;
+    int top = 0;
+    stack_fixed[top++] = root_;
+    while (top > 0 || !stack_big.empty()) {
+        std::int32_t id;
+        if (!stack_big.empty()) {
+            id = stack_big.back();
+            stack_big.pop_back();
+        } else {
+            id = stack_fixed[--top];
+        }
         const Node& n = nodes_[id];
         if (!segment_crosses_box(from, inv_d, t_max, n.box)) continue;
         if (n.is_leaf()) {
             t_max = f(id, t_max);
             if (t_max <= 0) return;
+        } else if (top + 2 <= 128) {
+            stack_fixed[top++] = n.child1;
+            stack_fixed[top++] = n.child2;
         } else {
-            stack.push_back(n.child1);
-            stack.push_back(n.child2);
+            stack_big.push_back(n.child1);
+            stack_big.push_back(n.child2);
         }
     }
 }
