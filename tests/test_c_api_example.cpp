@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/test_files_util.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -22,21 +24,7 @@ namespace {
 const std::string kBin = SINEW_BIN_DIR;
 const std::string kScene = std::string(SINEW_SOURCE_DIR) + "/demos/scenes/showcase-c-loop.json";
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-struct Scratch {
-    fs::path dir = fs::temp_directory_path() / ("sinew-c-example-" + std::to_string(::getpid()));
-    Scratch() { fs::create_directories(dir); }
-    ~Scratch() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-};
+using test_files::slurp;
 
 /// Runs a command with stdout to `out`; returns its exit status (-1 if it did not exit normally).
 int run(const std::string& cmd, const fs::path& out) {
@@ -49,7 +37,7 @@ int run(const std::string& cmd, const fs::path& out) {
 TEST_CASE("C example: the C game loop over a scene ends where `sinew run` of the same scene does", "[capi][example]") {
     REQUIRE(fs::exists(kBin + "/c_scene_loop"));
     REQUIRE(fs::exists(kBin + "/sinew"));
-    Scratch scratch;
+    test_files::ScratchDir scratch("sinew-c-example");
     const fs::path c_out = scratch.dir / "c.txt", record = scratch.dir / "run.jsonl", tool_out = scratch.dir / "tool.txt";
     REQUIRE(run("'" + kBin + "/c_scene_loop' '" + kScene + "' 150", c_out) == 0);
 

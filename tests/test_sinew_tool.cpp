@@ -10,9 +10,11 @@
 #include <sstream>
 
 #include "engine/world/scene.hpp"
+#include "tests/test_files_util.hpp"
 
 using namespace sinew;
 using Catch::Matchers::Contains;
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -33,24 +35,10 @@ std::string quote(const std::string& s) {
     return q + "'";
 }
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test_files::slurp;
 
-// A scratch folder per process (CTest runs test cases as parallel processes), removed at exit.
-struct Scratch {
-    fs::path dir = fs::temp_directory_path() / ("sinew-tool-test-" + std::to_string(::getpid()));
-    ~Scratch() {
-        std::error_code ec;
-        fs::remove_all(dir, ec);
-    }
-};
 fs::path scratch() {
-    static Scratch s;
-    fs::create_directories(s.dir);
+    static test_files::ScratchDir s("sinew-tool-test");
     return s.dir;
 }
 
