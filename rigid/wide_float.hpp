@@ -98,12 +98,24 @@ inline Vec3W operator*(FloatW s, const Vec3W& a) { return {s * a.x, s * a.y, s *
 inline FloatW dot(const Vec3W& a, const Vec3W& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline Vec3W& operator+=(Vec3W& a, const Vec3W& b) { return a = a + b; }
 inline Vec3W& operator-=(Vec3W& a, const Vec3W& b) { return a = a - b; }
+inline Vec3W cross(const Vec3W& a, const Vec3W& b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
 inline void set_lane(Vec3W& a, int i, const Vec3& v) {
     a.x.set_lane(i, v.x());
     a.y.set_lane(i, v.y());
     a.z.set_lane(i, v.z());
 }
 inline Vec3 lane(const Vec3W& a, int i) { return Vec3(a.x.lane(i), a.y.lane(i), a.z.lane(i)); }
+
+/// One 3x3 matrix per lane (row-major rows r[0..2]).
+struct Mat3W {
+    Vec3W r[3];
+};
+inline Vec3W operator*(const Mat3W& m, const Vec3W& v) { return {dot(m.r[0], v), dot(m.r[1], v), dot(m.r[2], v)}; }
+inline void set_lane(Mat3W& m, int i, const Mat3& a) {
+    for (int row = 0; row < 3; ++row) set_lane(m.r[row], i, Vec3(a(row, 0), a(row, 1), a(row, 2)));
+}
 
 /// A body's solver state as four rows of four Reals (x, y, z, unused): velocity, angular velocity, and
 /// the translation and rotation vector accumulated since the step began. Aligned so a row is one load.
