@@ -53,6 +53,22 @@ inline void clamp_to_friction_circle(Real& l0, Real& l1, Real max_f) {
     }
 }
 
+/// The soft step solver's contact kernels: the same arithmetic in lanes of different widths. Auto (the
+/// default) picks the widest this CPU runs; the others exist to compare them (`sinew bench rigid --simd`)
+/// and give bit-identical results, since no kernel fuses multiply-adds.
+enum class SimdKernel : std::uint8_t {
+    Auto,
+    Portable,  ///< four lanes in plain arrays (double precision and non-x86 builds)
+    Sse2,      ///< four floats per instruction (the x86-64 baseline)
+    Avx        ///< eight floats per instruction, if the CPU has AVX
+};
+const char* simd_kernel_name(SimdKernel k);
+bool simd_kernel_available(SimdKernel k);
+/// Process-wide; call it between steps, not during one. False (and no change) if `k` is unavailable.
+bool set_simd_kernel(SimdKernel k);
+/// The kernel the next step will use (Auto resolved).
+SimdKernel active_simd_kernel();
+
 std::unique_ptr<RigidSolver> make_sequential_impulse_solver();
 std::unique_ptr<RigidSolver> make_newton_impulse_solver();
 std::unique_ptr<RigidSolver> make_soft_step_solver();

@@ -15,6 +15,7 @@
 // a time, one per SIMD lane (rigid/wide_float.hpp), as Box2D v3 does. Manifolds that fit no colour run
 // one per batch. Measured on pyramid-40 (820 boxes, 2,380 manifolds): see the commit message.
 #include <algorithm>
+#include <atomic>
 #include <vector>
 
 #include "rigid/constraint_colouring.hpp"
@@ -40,8 +41,8 @@ Softness make_softness(Real hertz, Real zeta, Real h) {
     return {omega / a1, a2 * a3, a3};
 }
 
-/// Point slot k of four manifolds, one per lane. Lanes whose manifold has fewer points keep zero masses
-/// and impulses, so they compute nothing.
+/// Point slot k of a batch's manifolds, one per lane. Lanes whose manifold has fewer points keep zero
+/// masses and impulses, so they compute nothing.
 struct WidePoint {
     Vec3W ra_n, rb_n, ia_n, ib_n;  // r x n and I^-1 (r x n) for A and B
     Vec3W ra_t[2], rb_t[2], ia_t[2], ib_t[2];
@@ -51,7 +52,8 @@ struct WidePoint {
     FloatW relative_velocity;  // normal velocity at the start of the step (restitution)
 };
 
-/// Four manifolds solved side by side. Unused lanes point at the padding body and have zero masses.
+/// Up to kWideLanes manifolds of one colour, solved side by side. Unused lanes point at the padding body
+/// and have zero masses.
 struct WideContact {
     std::int32_t a[kWideLanes], b[kWideLanes];
     Vec3W n, t[2];
@@ -59,12 +61,88 @@ struct WideContact {
     FloatW bias_rate, mass_scale, impulse_scale;  // soft contact (Catto 2011), per lane
     std::uint32_t manifold[kWideLanes];           // source manifold, or kNoManifold
     int count[kWideLanes];
-    int max_count;
+    int lanes;      // lanes in use (the rest are padding)
+    int max_count;  // most points of any lane
     bool any_restitution;
     WidePoint p[Manifold::kMaxPoints];
 };
 
+/// Per-lane inputs of a batch, staged so the kernels compute the arms and masses lanes at a time.
+struct BatchInputs {
+    Vec3W xa, xb, va, vb, wa, wb;
+    Vec3W ia[3], ib[3];  // rows of the world inverse inertia
+    Vec3W pos[Manifold::kMaxPoints];
+    FloatW valid[Manifold::kMaxPoints];  // 1 where the lane's manifold has point k
+};
+
 constexpr std::uint32_t kNoManifold = 0xFFFFFFFFu;
+
+// ---- kernels: one copy per register type ------------------------------------------------------------
+namespace portable {
+using R = G4;
+constexpr int kR = 4;
+inline R splat(Real x) { return splat_g4(x); }
+#include "rigid/soft_step_kernels.inl"
+}  // namespace portable
+
+#if SINEW_WIDE_X86
+namespace sse2 {
+using R = F4;
+constexpr int kR = 4;
+inline R splat(Real x) { return splat_f4(x); }
+#include "rigid/soft_step_kernels.inl"
+}  // namespace sse2
+
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace avx {
+using R = F8;
+constexpr int kR = 8;
+inline R splat(Real x) { return splat_f8(x); }
+#include "rigid/soft_step_kernels.inl"
+}  // namespace avx
+#pragma GCC pop_options
+#endif
+
+/// The kernels of one register type, called once per pass (never per constraint).
+struct Kernels {
+    void (*prepare)(WideContact&, const BatchInputs&);
+    void (*warm_start)(WideContact*, std::size_t, WideBody*);
+    void (*solve)(WideContact*, std::size_t, WideBody*, Real, Real, bool);
+    void (*restitution)(WideContact*, std::size_t, WideBody*, Real);
+};
+
+Kernels kernels_for(SimdKernel k) {
+    switch (k) {
+#if SINEW_WIDE_X86
+        case SimdKernel::Avx:
+            return {avx::prepare_batch, avx::warm_start_all, avx::solve_all, avx::restitution_all};
+        case SimdKernel::Sse2:
+            return {sse2::prepare_batch, sse2::warm_start_all, sse2::solve_all, sse2::restitution_all};
+#endif
+        default:
+            return {portable::prepare_batch, portable::warm_start_all, portable::solve_all, portable::restitution_all};
+    }
+}
+
+bool cpu_has_avx() {
+#if SINEW_WIDE_X86
+    static const bool has = __builtin_cpu_supports("avx");
+    return has;
+#else
+    return false;
+#endif
+}
+
+SimdKernel widest_kernel() {
+#if SINEW_WIDE_X86
+    return cpu_has_avx() ? SimdKernel::Avx : SimdKernel::Sse2;
+#else
+    return SimdKernel::Portable;
+#endif
+}
+
+std::atomic<SimdKernel> g_kernel{SimdKernel::Auto};
 
 class SoftStepSolver final : public RigidSolver {
 public:
@@ -75,12 +153,14 @@ public:
 private:
     void colour(const RigidSystem& sys);
     void prepare(const RigidSystem& sys, Real h_sub);
-    /// Prepares batch c from up to four manifolds of one colour (`lanes` of them).
+    /// Prepares batch c from up to kWideLanes manifolds of one colour (`lanes` of them).
     void fill_batch(WideContact& c, const std::uint32_t* manifolds, int lanes, const RigidSystem& sys,
                     const Softness& soft, const Softness& static_soft);
-    void warm_start();
-    void solve(Real inv_h_sub, Real push_velocity, bool use_bias);
-    void restitution(Real threshold);
+    void warm_start() { kernels_.warm_start(contacts_.data(), contacts_.size(), bodies_.data()); }
+    void solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
+        kernels_.solve(contacts_.data(), contacts_.size(), bodies_.data(), inv_h_sub, push_velocity, use_bias);
+    }
+    void restitution(Real threshold) { kernels_.restitution(contacts_.data(), contacts_.size(), bodies_.data(), threshold); }
     void store_impulses(RigidSystem& sys) const;
     void bodies_to_state(RigidSystem::State& st) const;
     void bodies_from_state(const RigidSystem::State& st);
@@ -91,6 +171,8 @@ private:
     std::vector<std::uint32_t> by_colour_[ConstraintColouring::kColours + 1];
     std::vector<WideContact> contacts_;
     std::vector<WideBody> bodies_;  // one per body slot, then the padding body (always at rest)
+    Kernels kernels_{};
+    BatchInputs inputs_;
     std::int32_t pad_ = 0;  // index of the padding body
     bool pending_ = false, have_joints_ = false;
     Real h_sub_ = 0;
@@ -110,16 +192,15 @@ void SoftStepSolver::colour(const RigidSystem& sys) {
 
 void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, int lanes, const RigidSystem& sys,
                                 const Softness& soft, const Softness& static_soft) {
-    const RigidSettings& set = sys.settings();
     const RigidSystem::State& st = sys.state();
     const auto& src = sys.contacts();
-    const bool warm = set.warm_starting;
-    // Per-lane data is gathered into lanes; the arms, Jacobians and effective masses are then computed
-    // four lanes at a time. Unused lanes point at the padding body with zero mass and inertia.
-    Vec3W xa{}, xb{}, va{}, vb{}, wa{}, wb{};
-    Mat3W ia{}, ib{};
+    const bool warm = sys.settings().warm_starting;
+    BatchInputs& in = inputs_;
+    c.lanes = lanes;
     c.max_count = 0;
     c.any_restitution = false;
+    // Per-lane data is staged into lanes here; the kernel then computes the arms, Jacobians and effective
+    // masses lanes at a time. Unused lanes point at the padding body with zero mass and inertia.
     for (int l = 0; l < kWideLanes; ++l) {
         Softness s{};
         if (l < lanes) {
@@ -135,21 +216,27 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             set_lane(c.n, l, n);
             set_lane(c.t[0], l, t0);
             set_lane(c.t[1], l, t1);
-            c.inv_ma.set_lane(l, st.inv_mass[a]);
-            c.inv_mb.set_lane(l, st.inv_mass[b]);
+            const Real wa = st.inv_mass[a], wb = st.inv_mass[b];
+            c.inv_ma.set_lane(l, wa);
+            c.inv_mb.set_lane(l, wb);
+            c.inv_m_sum.set_lane(l, wa + wb);
             c.friction.set_lane(l, cm.friction);
             c.restitution.set_lane(l, cm.restitution);
             c.any_restitution = c.any_restitution || cm.restitution > 0;
             // Contacts against immovable bodies are twice as stiff since only one body gives way (Box2D v3).
-            s = (st.inv_mass[a] == 0 || st.inv_mass[b] == 0) ? static_soft : soft;
-            set_lane(xa, l, st.x[a]);
-            set_lane(xb, l, st.x[b]);
-            set_lane(va, l, st.v[a]);
-            set_lane(vb, l, st.v[b]);
-            set_lane(wa, l, st.w[a]);
-            set_lane(wb, l, st.w[b]);
-            set_lane(ia, l, st.inv_inertia_world[a]);
-            set_lane(ib, l, st.inv_inertia_world[b]);
+            s = (wa == 0 || wb == 0) ? static_soft : soft;
+            set_lane(in.xa, l, st.x[a]);
+            set_lane(in.xb, l, st.x[b]);
+            set_lane(in.va, l, st.v[a]);
+            set_lane(in.vb, l, st.v[b]);
+            set_lane(in.wa, l, st.w[a]);
+            set_lane(in.wb, l, st.w[b]);
+            const Mat3& ia = st.inv_inertia_world[a];
+            const Mat3& ib = st.inv_inertia_world[b];
+            for (int row = 0; row < 3; ++row) {
+                set_lane(in.ia[row], l, ia.row(row).transpose());
+                set_lane(in.ib[row], l, ib.row(row).transpose());
+            }
         } else {
             c.a[l] = c.b[l] = pad_;
             c.manifold[l] = kNoManifold;
@@ -157,58 +244,36 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             set_lane(c.n, l, Vec3::UnitY());
             set_lane(c.t[0], l, Vec3::UnitX());
             set_lane(c.t[1], l, Vec3::UnitZ());
-            c.inv_ma.set_lane(l, 0);
-            c.inv_mb.set_lane(l, 0);
-            c.friction.set_lane(l, 0);
-            c.restitution.set_lane(l, 0);
+            for (FloatW* f : {&c.inv_ma, &c.inv_mb, &c.inv_m_sum, &c.friction, &c.restitution}) f->set_lane(l, 0);
+            for (Vec3W* v : {&in.xa, &in.xb, &in.va, &in.vb, &in.wa, &in.wb, &in.ia[0], &in.ia[1], &in.ia[2],
+                             &in.ib[0], &in.ib[1], &in.ib[2]})
+                set_lane(*v, l, Vec3::Zero());
         }
         c.bias_rate.set_lane(l, s.bias_rate);
         c.mass_scale.set_lane(l, s.mass_scale);
         c.impulse_scale.set_lane(l, s.impulse_scale);
     }
-    const FloatW zero = zero_w(), one = splat(1);
-    const FloatW inv_m_sum = c.inv_m_sum = c.inv_ma + c.inv_mb;
     for (int k = 0; k < c.max_count; ++k) {
         WidePoint& p = c.p[k];
-        Vec3W pos{};
-        FloatW valid = zero;
         for (int l = 0; l < kWideLanes; ++l) {
             if (k < c.count[l]) {
                 const ContactPoint& cp = src[c.manifold[l]].manifold.points[k];
-                set_lane(pos, l, cp.position);
-                valid.set_lane(l, 1);
+                set_lane(in.pos[k], l, cp.position);
+                in.valid[k].set_lane(l, 1);
                 p.normal_impulse.set_lane(l, warm ? cp.normal_impulse : 0);
                 p.tangent_impulse[0].set_lane(l, warm ? cp.tangent_impulse[0] : 0);
                 p.tangent_impulse[1].set_lane(l, warm ? cp.tangent_impulse[1] : 0);
                 p.base_separation.set_lane(l, -cp.depth);
             } else {
                 // An empty slot: zero arms, masses and impulses, so it computes nothing.
-                set_lane(pos, l, lane(xa, l));
-                p.normal_impulse.set_lane(l, 0);
-                p.tangent_impulse[0].set_lane(l, 0);
-                p.tangent_impulse[1].set_lane(l, 0);
-                p.base_separation.set_lane(l, 0);
+                set_lane(in.pos[k], l, lane(in.xa, l));
+                in.valid[k].set_lane(l, 0);
+                for (FloatW* f : {&p.normal_impulse, &p.tangent_impulse[0], &p.tangent_impulse[1], &p.base_separation})
+                    f->set_lane(l, 0);
             }
         }
-        const FloatW has = greater_w(valid, zero);
-        const Vec3W ra = pos - xa, rb = pos - xb;
-        p.ra_n = cross(ra, c.n);
-        p.rb_n = cross(rb, c.n);
-        p.ia_n = ia * p.ra_n;
-        p.ib_n = ib * p.rb_n;
-        const FloatW kn = inv_m_sum + dot(p.ra_n, p.ia_n) + dot(p.rb_n, p.ib_n);
-        p.normal_mass = select_w(and_w(has, greater_w(kn, zero)), one / max_w(kn, splat(Real(1e-30))), zero);
-        for (int t = 0; t < 2; ++t) {
-            p.ra_t[t] = cross(ra, c.t[t]);
-            p.rb_t[t] = cross(rb, c.t[t]);
-            p.ia_t[t] = ia * p.ra_t[t];
-            p.ib_t[t] = ib * p.rb_t[t];
-            const FloatW kt = inv_m_sum + dot(p.ra_t[t], p.ia_t[t]) + dot(p.rb_t[t], p.ib_t[t]);
-            p.tangent_mass[t] = select_w(and_w(has, greater_w(kt, zero)), one / max_w(kt, splat(Real(1e-30))), zero);
-        }
-        p.max_normal_impulse = zero;
-        p.relative_velocity = dot(c.n, vb + cross(wb, rb) - va - cross(wa, ra));
     }
+    kernels_.prepare(c, in);
 }
 
 void SoftStepSolver::prepare(const RigidSystem& sys, Real h_sub) {
@@ -233,125 +298,6 @@ void SoftStepSolver::prepare(const RigidSystem& sys, Real h_sub) {
     // Overflow: one manifold per batch, so lanes never share a moving body.
     for (const std::uint32_t& ci : by_colour_[ConstraintColouring::kOverflow])
         fill_batch(contacts_[next++], &ci, 1, sys, soft, static_soft);
-}
-
-void SoftStepSolver::warm_start() {
-    WideBody* bodies = bodies_.data();
-    for (WideContact& c : contacts_) {
-        BodyW A = gather_bodies(bodies, c.a), B = gather_bodies(bodies, c.b);
-        // The points share n and t, so their linear impulses add up before touching the velocities.
-        FloatW pn = zero_w(), p0 = zero_w(), p1 = zero_w();
-        for (int k = 0; k < c.max_count; ++k) {
-            const WidePoint& p = c.p[k];
-            pn += p.normal_impulse;
-            p0 += p.tangent_impulse[0];
-            p1 += p.tangent_impulse[1];
-            A.w -= p.normal_impulse * p.ia_n + p.tangent_impulse[0] * p.ia_t[0] + p.tangent_impulse[1] * p.ia_t[1];
-            B.w += p.normal_impulse * p.ib_n + p.tangent_impulse[0] * p.ib_t[0] + p.tangent_impulse[1] * p.ib_t[1];
-        }
-        const Vec3W j = pn * c.n + p0 * c.t[0] + p1 * c.t[1];
-        A.v -= c.inv_ma * j;
-        B.v += c.inv_mb * j;
-        scatter_velocities(bodies, c.a, A);
-        scatter_velocities(bodies, c.b, B);
-    }
-}
-
-void SoftStepSolver::solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
-    WideBody* bodies = bodies_.data();
-    const FloatW zero = zero_w(), one = splat(1), inv_h = splat(inv_h_sub), min_bias = splat(-push_velocity);
-    for (WideContact& c : contacts_) {
-        BodyW A = gather_bodies(bodies, c.a), B = gather_bodies(bodies, c.b);
-        const FloatW dpn = dot(c.n, B.dp - A.dp);
-        // The linear part of each row's velocity, n.(vB - vA) and t.(vB - vA), is the same for all points
-        // of a manifold, and an impulse along n changes only the n part (n, t0, t1 are orthonormal) by
-        // dl (1/mA + 1/mB). Tracking the three projections and applying the summed linear impulse once
-        // at the end is exact and saves a third of the arithmetic.
-        const Vec3W dv = B.v - A.v;
-        FloatW vn_lin = dot(c.n, dv), vt0_lin = dot(c.t[0], dv), vt1_lin = dot(c.t[1], dv);
-        FloatW pn = zero, p0 = zero, p1 = zero;
-        for (int k = 0; k < c.max_count; ++k) {
-            WidePoint& p = c.p[k];
-            const FloatW s = p.base_separation + dpn + dot(p.rb_n, B.dth) - dot(p.ra_n, A.dth);
-            // A gap (s > 0) is speculative: the bodies may close it this sub-step. An overlap gets the soft
-            // push in the biased pass and nothing in the relax pass.
-            const FloatW gap = greater_w(s, zero);
-            FloatW bias, mass_scale = one, impulse_scale = zero;
-            if (use_bias) {
-                bias = select_w(gap, s * inv_h, max_w(c.bias_rate * s, min_bias));
-                mass_scale = select_w(gap, one, c.mass_scale);
-                impulse_scale = select_w(gap, zero, c.impulse_scale);
-            } else {
-                bias = select_w(gap, s * inv_h, zero);
-            }
-            const FloatW vn = vn_lin + dot(p.rb_n, B.w) - dot(p.ra_n, A.w);
-            const FloatW impulse = zero - p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-            const FloatW acc = max_w(p.normal_impulse + impulse, zero);
-            const FloatW dl = acc - p.normal_impulse;
-            p.normal_impulse = acc;
-            p.max_normal_impulse = max_w(p.max_normal_impulse, dl);
-            vn_lin += dl * c.inv_m_sum;
-            pn += dl;
-            A.w -= dl * p.ia_n;
-            B.w += dl * p.ib_n;
-        }
-        // Friction after the normals (Box2D v3 order within a sub-step), bounded by each point's normal
-        // impulse (seed 001 ch.5), on two persistent tangents; both rows from the same velocities, then
-        // clamped together to the friction circle (a square cone is up to sqrt 2 too strong).
-        for (int k = 0; k < c.max_count; ++k) {
-            WidePoint& p = c.p[k];
-            const FloatW max_f = c.friction * p.normal_impulse;
-            const FloatW vt0 = vt0_lin + dot(p.rb_t[0], B.w) - dot(p.ra_t[0], A.w);
-            const FloatW vt1 = vt1_lin + dot(p.rb_t[1], B.w) - dot(p.ra_t[1], A.w);
-            FloatW l0 = p.tangent_impulse[0] - p.tangent_mass[0] * vt0;
-            FloatW l1 = p.tangent_impulse[1] - p.tangent_mass[1] * vt1;
-            const FloatW len2 = l0 * l0 + l1 * l1;
-            const FloatW over = greater_w(len2, max_f * max_f);
-            const FloatW scale = select_w(over, max_f / sqrt_w(max_w(len2, splat(Real(1e-30)))), one);
-            l0 = l0 * scale;
-            l1 = l1 * scale;
-            const FloatW d0 = l0 - p.tangent_impulse[0], d1 = l1 - p.tangent_impulse[1];
-            p.tangent_impulse[0] = l0;
-            p.tangent_impulse[1] = l1;
-            vt0_lin += d0 * c.inv_m_sum;
-            vt1_lin += d1 * c.inv_m_sum;
-            p0 += d0;
-            p1 += d1;
-            A.w -= d0 * p.ia_t[0] + d1 * p.ia_t[1];
-            B.w += d0 * p.ib_t[0] + d1 * p.ib_t[1];
-        }
-        const Vec3W j = pn * c.n + p0 * c.t[0] + p1 * c.t[1];
-        A.v -= c.inv_ma * j;
-        B.v += c.inv_mb * j;
-        scatter_velocities(bodies, c.a, A);
-        scatter_velocities(bodies, c.b, B);
-    }
-}
-
-void SoftStepSolver::restitution(Real threshold) {
-    WideBody* bodies = bodies_.data();
-    const FloatW zero = zero_w(), min_speed = splat(-threshold);
-    for (WideContact& c : contacts_) {
-        if (!c.any_restitution) continue;
-        BodyW A = gather_bodies(bodies, c.a), B = gather_bodies(bodies, c.b);
-        for (int k = 0; k < c.max_count; ++k) {
-            WidePoint& p = c.p[k];
-            // Only impacts faster than the threshold that actually pushed (Box2D v3).
-            const FloatW bounce = and_w(and_w(less_w(p.relative_velocity, min_speed), greater_w(p.max_normal_impulse, zero)),
-                                        greater_w(c.restitution, zero));
-            const FloatW vn = dot(c.n, B.v - A.v) + dot(p.rb_n, B.w) - dot(p.ra_n, A.w);
-            const FloatW impulse = zero - p.normal_mass * (vn + c.restitution * p.relative_velocity);
-            const FloatW acc = max_w(p.normal_impulse + impulse, zero);
-            const FloatW dl = select_w(bounce, acc - p.normal_impulse, zero);
-            p.normal_impulse += dl;
-            A.v -= (dl * c.inv_ma) * c.n;
-            B.v += (dl * c.inv_mb) * c.n;
-            A.w -= dl * p.ia_n;
-            B.w += dl * p.ib_n;
-        }
-        scatter_velocities(bodies, c.a, A);
-        scatter_velocities(bodies, c.b, B);
-    }
 }
 
 void SoftStepSolver::store_impulses(RigidSystem& sys) const {
@@ -394,6 +340,7 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     RigidSystem::State& st = sys.state();
     const std::size_t nb = st.x.size();
     bodies_.assign(nb + 1, WideBody{});  // zero motion since the step began; the padding body at rest
+    kernels_ = kernels_for(active_simd_kernel());
     prepare(sys, h_sub);
     // Joints are soft too (Box2D v3: twice the contact stiffness, damping ratio 2); they work on the
     // system's arrays, synced with the solver's copies around each joint pass when joints exist.
@@ -463,6 +410,37 @@ void SoftStepSolver::correct_positions(RigidSystem& sys, Real) {
 }
 
 }  // namespace
+
+const char* simd_kernel_name(SimdKernel k) {
+    switch (k) {
+        case SimdKernel::Auto: return "auto";
+        case SimdKernel::Portable: return "portable";
+        case SimdKernel::Sse2: return "sse2";
+        case SimdKernel::Avx: return "avx";
+    }
+    return "unknown";
+}
+
+bool simd_kernel_available(SimdKernel k) {
+    switch (k) {
+        case SimdKernel::Auto:
+        case SimdKernel::Portable: return true;
+        case SimdKernel::Sse2: return SINEW_WIDE_X86 != 0;
+        case SimdKernel::Avx: return cpu_has_avx();
+    }
+    return false;
+}
+
+bool set_simd_kernel(SimdKernel k) {
+    if (!simd_kernel_available(k)) return false;
+    g_kernel.store(k);
+    return true;
+}
+
+SimdKernel active_simd_kernel() {
+    const SimdKernel k = g_kernel.load();
+    return k == SimdKernel::Auto ? widest_kernel() : k;
+}
 
 std::unique_ptr<RigidSolver> make_soft_step_solver() { return std::make_unique<SoftStepSolver>(); }
 

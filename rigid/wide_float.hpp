@@ -1,121 +1,48 @@
-// Four lanes of Real for the graph-coloured contact solver: each lane holds one contact manifold, so one
-// instruction advances four independent constraints (Box2D v3's "wide" solver, Catto 2024). With float
-// on x86-64 a lane group is one SSE register (SSE2 is part of the x86-64 baseline, so no flag is needed);
-// in double precision or elsewhere it is a plain array the compiler may vectorise.
+// Lanes of Real for the graph-coloured contact solver: each lane holds one contact manifold, so one
+// instruction advances several independent constraints (Box2D v3's "wide" solver, Catto 2024).
+//
+// Storage is eight lanes (FloatW). The solver's kernels run on a register type chosen at run time:
+//   F8 (AVX, 8 floats): compiled for AVX with a target pragma and used only if the CPU has AVX;
+//   F4 (SSE2, 4 floats): the x86-64 baseline, so it needs no compiler flag; a batch is two halves;
+//   G4 (4 Reals in a plain array): double precision and other architectures.
+// No fused multiply-add is used, so every kernel rounds exactly the same way: the AVX and SSE2 kernels
+// give bit-identical results (tests/test_rigid_simd.cpp checks it).
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "engine/core/math.hpp"
 
-#if defined(__SSE2__) && !defined(SINEW_DOUBLE)
-#define SINEW_WIDE_SSE 1
-#include <emmintrin.h>
-#include <xmmintrin.h>
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && !defined(SINEW_DOUBLE) && \
+    (defined(__GNUC__) || defined(__clang__))
+#define SINEW_WIDE_X86 1
+#include <immintrin.h>
 #else
-#define SINEW_WIDE_SSE 0
+#define SINEW_WIDE_X86 0
 #endif
 
 namespace sinew {
 
-constexpr int kWideLanes = 4;
+constexpr int kWideLanes = 8;
 
-#if SINEW_WIDE_SSE
-
-struct FloatW {
-    __m128 m;
-    /// Lane access for preparing and storing (not in solver loops); __m128 may alias float.
-    Real lane(int i) const { return reinterpret_cast<const float*>(&m)[i]; }
-    void set_lane(int i, Real x) { reinterpret_cast<float*>(&m)[i] = x; }
-};
-inline FloatW splat(Real x) { return {_mm_set1_ps(x)}; }
-inline FloatW zero_w() { return {_mm_setzero_ps()}; }
-inline FloatW operator+(FloatW a, FloatW b) { return {_mm_add_ps(a.m, b.m)}; }
-inline FloatW operator-(FloatW a, FloatW b) { return {_mm_sub_ps(a.m, b.m)}; }
-inline FloatW operator*(FloatW a, FloatW b) { return {_mm_mul_ps(a.m, b.m)}; }
-inline FloatW operator/(FloatW a, FloatW b) { return {_mm_div_ps(a.m, b.m)}; }
-inline FloatW max_w(FloatW a, FloatW b) { return {_mm_max_ps(a.m, b.m)}; }
-inline FloatW min_w(FloatW a, FloatW b) { return {_mm_min_ps(a.m, b.m)}; }
-inline FloatW sqrt_w(FloatW a) { return {_mm_sqrt_ps(a.m)}; }
-/// Lane mask: all bits set where a > b.
-inline FloatW greater_w(FloatW a, FloatW b) { return {_mm_cmpgt_ps(a.m, b.m)}; }
-inline FloatW less_w(FloatW a, FloatW b) { return {_mm_cmplt_ps(a.m, b.m)}; }
-inline FloatW and_w(FloatW a, FloatW b) { return {_mm_and_ps(a.m, b.m)}; }
-/// mask ? a : b, lane by lane.
-inline FloatW select_w(FloatW mask, FloatW a, FloatW b) {
-    return {_mm_or_ps(_mm_and_ps(mask.m, a.m), _mm_andnot_ps(mask.m, b.m))};
-}
-
-#else
-
-struct FloatW {
+/// Eight lanes in memory; the kernels load four or eight at a time.
+struct alignas(32) FloatW {
     Real v[kWideLanes];
     Real lane(int i) const { return v[i]; }
     void set_lane(int i, Real x) { v[i] = x; }
 };
-inline FloatW splat(Real x) { return {{x, x, x, x}}; }
-inline FloatW zero_w() { return splat(0); }
-#define SINEW_WIDE_BINARY(name, expr)                                  \
-    inline FloatW name(FloatW a, FloatW b) {                           \
-        FloatW r;                                                      \
-        for (int i = 0; i < kWideLanes; ++i) r.v[i] = (expr);          \
-        return r;                                                      \
-    }
-SINEW_WIDE_BINARY(operator+, a.v[i] + b.v[i])
-SINEW_WIDE_BINARY(operator-, a.v[i] - b.v[i])
-SINEW_WIDE_BINARY(operator*, a.v[i] * b.v[i])
-SINEW_WIDE_BINARY(operator/, a.v[i] / b.v[i])
-SINEW_WIDE_BINARY(max_w, a.v[i] > b.v[i] ? a.v[i] : b.v[i])
-SINEW_WIDE_BINARY(min_w, a.v[i] < b.v[i] ? a.v[i] : b.v[i])
-// Masks are 1 (true) or 0 (false) in the portable form.
-SINEW_WIDE_BINARY(greater_w, a.v[i] > b.v[i] ? Real(1) : Real(0))
-SINEW_WIDE_BINARY(less_w, a.v[i] < b.v[i] ? Real(1) : Real(0))
-SINEW_WIDE_BINARY(and_w, (a.v[i] != 0 && b.v[i] != 0) ? Real(1) : Real(0))
-#undef SINEW_WIDE_BINARY
-inline FloatW sqrt_w(FloatW a) {
-    FloatW r;
-    for (int i = 0; i < kWideLanes; ++i) r.v[i] = std::sqrt(a.v[i]);
-    return r;
-}
-inline FloatW select_w(FloatW mask, FloatW a, FloatW b) {
-    FloatW r;
-    for (int i = 0; i < kWideLanes; ++i) r.v[i] = mask.v[i] != 0 ? a.v[i] : b.v[i];
-    return r;
-}
 
-#endif
-
-inline FloatW& operator+=(FloatW& a, FloatW b) { return a = a + b; }
-inline FloatW& operator-=(FloatW& a, FloatW b) { return a = a - b; }
-
-/// Three FloatW: one 3-vector per lane.
+/// Eight 3-vectors, one per lane.
 struct Vec3W {
     FloatW x, y, z;
 };
-inline Vec3W operator+(const Vec3W& a, const Vec3W& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline Vec3W operator-(const Vec3W& a, const Vec3W& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline Vec3W operator*(FloatW s, const Vec3W& a) { return {s * a.x, s * a.y, s * a.z}; }
-inline FloatW dot(const Vec3W& a, const Vec3W& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline Vec3W& operator+=(Vec3W& a, const Vec3W& b) { return a = a + b; }
-inline Vec3W& operator-=(Vec3W& a, const Vec3W& b) { return a = a - b; }
-inline Vec3W cross(const Vec3W& a, const Vec3W& b) {
-    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
 inline void set_lane(Vec3W& a, int i, const Vec3& v) {
-    a.x.set_lane(i, v.x());
-    a.y.set_lane(i, v.y());
-    a.z.set_lane(i, v.z());
+    a.x.v[i] = v.x();
+    a.y.v[i] = v.y();
+    a.z.v[i] = v.z();
 }
-inline Vec3 lane(const Vec3W& a, int i) { return Vec3(a.x.lane(i), a.y.lane(i), a.z.lane(i)); }
-
-/// One 3x3 matrix per lane (row-major rows r[0..2]).
-struct Mat3W {
-    Vec3W r[3];
-};
-inline Vec3W operator*(const Mat3W& m, const Vec3W& v) { return {dot(m.r[0], v), dot(m.r[1], v), dot(m.r[2], v)}; }
-inline void set_lane(Mat3W& m, int i, const Mat3& a) {
-    for (int row = 0; row < 3; ++row) set_lane(m.r[row], i, Vec3(a(row, 0), a(row, 1), a(row, 2)));
-}
+inline Vec3 lane(const Vec3W& a, int i) { return Vec3(a.x.v[i], a.y.v[i], a.z.v[i]); }
 
 /// A body's solver state as four rows of four Reals (x, y, z, unused): velocity, angular velocity, and
 /// the translation and rotation vector accumulated since the step began. Aligned so a row is one load.
@@ -123,69 +50,147 @@ struct alignas(16) WideBody {
     Real v[4], w[4], dp[4], dth[4];
 };
 
-/// One body per lane, gathered for a solve: velocities (read and written) and accumulated motion (read).
-struct BodyW {
-    Vec3W v, w, dp, dth;
+// ---- G4: four Reals in a plain array (double precision, other architectures) ----------------------
+struct G4 {
+    Real v[4];
 };
-
-#if SINEW_WIDE_SSE
-
-inline void transpose_rows(const float* r0, const float* r1, const float* r2, const float* r3, Vec3W& out) {
-    __m128 a = _mm_load_ps(r0), b = _mm_load_ps(r1), c = _mm_load_ps(r2), d = _mm_load_ps(r3);
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    out.x.m = a;
-    out.y.m = b;
-    out.z.m = c;
+#define SINEW_G4_BINARY(name, expr)                     \
+    inline G4 name(G4 a, G4 b) {                        \
+        G4 r;                                           \
+        for (int i = 0; i < 4; ++i) r.v[i] = (expr);    \
+        return r;                                       \
+    }
+SINEW_G4_BINARY(operator+, a.v[i] + b.v[i])
+SINEW_G4_BINARY(operator-, a.v[i] - b.v[i])
+SINEW_G4_BINARY(operator*, a.v[i] * b.v[i])
+SINEW_G4_BINARY(operator/, a.v[i] / b.v[i])
+SINEW_G4_BINARY(max_r, a.v[i] > b.v[i] ? a.v[i] : b.v[i])
+// Masks are 1 (true) or 0 (false) in the portable form.
+SINEW_G4_BINARY(greater_r, a.v[i] > b.v[i] ? Real(1) : Real(0))
+SINEW_G4_BINARY(less_r, a.v[i] < b.v[i] ? Real(1) : Real(0))
+SINEW_G4_BINARY(and_r, (a.v[i] != 0 && b.v[i] != 0) ? Real(1) : Real(0))
+#undef SINEW_G4_BINARY
+inline G4 splat_g4(Real x) { return {{x, x, x, x}}; }
+inline G4 sqrt_r(G4 a) {
+    for (Real& x : a.v) x = std::sqrt(x);
+    return a;
 }
-inline void store_rows(const Vec3W& in, float* r0, float* r1, float* r2, float* r3) {
-    __m128 a = in.x.m, b = in.y.m, c = in.z.m, d = _mm_setzero_ps();
-    _MM_TRANSPOSE4_PS(a, b, c, d);
-    _mm_store_ps(r0, a);
-    _mm_store_ps(r1, b);
-    _mm_store_ps(r2, c);
-    _mm_store_ps(r3, d);
+inline G4 select_r(G4 mask, G4 a, G4 b) {
+    G4 r;
+    for (int i = 0; i < 4; ++i) r.v[i] = mask.v[i] != 0 ? a.v[i] : b.v[i];
+    return r;
 }
-
-#else
-
-inline void transpose_rows(const Real* r0, const Real* r1, const Real* r2, const Real* r3, Vec3W& out) {
-    const Real* r[4] = {r0, r1, r2, r3};
-    for (int i = 0; i < kWideLanes; ++i) {
-        out.x.v[i] = r[i][0];
-        out.y.v[i] = r[i][1];
-        out.z.v[i] = r[i][2];
+inline G4 load_r(const FloatW& w, int half, G4*) {
+    G4 r;
+    for (int i = 0; i < 4; ++i) r.v[i] = w.v[4 * half + i];
+    return r;
+}
+inline void store_r(FloatW& w, int half, G4 r) {
+    for (int i = 0; i < 4; ++i) w.v[4 * half + i] = r.v[i];
+}
+/// Rows x, y, z of four bodies' 4-vectors (body i's row at rows[i]) as lanes.
+inline void gather_rows(const Real* const rows[4], G4& x, G4& y, G4& z) {
+    for (int i = 0; i < 4; ++i) {
+        x.v[i] = rows[i][0];
+        y.v[i] = rows[i][1];
+        z.v[i] = rows[i][2];
     }
 }
-inline void store_rows(const Vec3W& in, Real* r0, Real* r1, Real* r2, Real* r3) {
-    Real* r[4] = {r0, r1, r2, r3};
-    for (int i = 0; i < kWideLanes; ++i) {
-        r[i][0] = in.x.v[i];
-        r[i][1] = in.y.v[i];
-        r[i][2] = in.z.v[i];
-        r[i][3] = 0;
+inline void scatter_rows(Real* const rows[4], G4 x, G4 y, G4 z) {
+    for (int i = 0; i < 4; ++i) {
+        rows[i][0] = x.v[i];
+        rows[i][1] = y.v[i];
+        rows[i][2] = z.v[i];
+        rows[i][3] = 0;
     }
 }
 
-#endif
+#if SINEW_WIDE_X86
 
-/// Gathers the four lanes' bodies (indices into `bodies`).
-inline BodyW gather_bodies(const WideBody* bodies, const std::int32_t idx[kWideLanes]) {
-    const WideBody &b0 = bodies[idx[0]], &b1 = bodies[idx[1]], &b2 = bodies[idx[2]], &b3 = bodies[idx[3]];
-    BodyW g;
-    transpose_rows(b0.v, b1.v, b2.v, b3.v, g.v);
-    transpose_rows(b0.w, b1.w, b2.w, b3.w, g.w);
-    transpose_rows(b0.dp, b1.dp, b2.dp, b3.dp, g.dp);
-    transpose_rows(b0.dth, b1.dth, b2.dth, b3.dth, g.dth);
-    return g;
+// ---- F4: SSE2, four floats ----------------------------------------------------------------------
+struct F4 {
+    __m128 m;
+};
+inline F4 operator+(F4 a, F4 b) { return {_mm_add_ps(a.m, b.m)}; }
+inline F4 operator-(F4 a, F4 b) { return {_mm_sub_ps(a.m, b.m)}; }
+inline F4 operator*(F4 a, F4 b) { return {_mm_mul_ps(a.m, b.m)}; }
+inline F4 operator/(F4 a, F4 b) { return {_mm_div_ps(a.m, b.m)}; }
+inline F4 max_r(F4 a, F4 b) { return {_mm_max_ps(a.m, b.m)}; }
+inline F4 sqrt_r(F4 a) { return {_mm_sqrt_ps(a.m)}; }
+/// Lane masks: all bits set where true.
+inline F4 greater_r(F4 a, F4 b) { return {_mm_cmpgt_ps(a.m, b.m)}; }
+inline F4 less_r(F4 a, F4 b) { return {_mm_cmplt_ps(a.m, b.m)}; }
+inline F4 and_r(F4 a, F4 b) { return {_mm_and_ps(a.m, b.m)}; }
+inline F4 select_r(F4 mask, F4 a, F4 b) { return {_mm_or_ps(_mm_and_ps(mask.m, a.m), _mm_andnot_ps(mask.m, b.m))}; }
+inline F4 splat_f4(float x) { return {_mm_set1_ps(x)}; }
+inline F4 load_r(const FloatW& w, int half, F4*) { return {_mm_load_ps(w.v + 4 * half)}; }
+inline void store_r(FloatW& w, int half, F4 r) { _mm_store_ps(w.v + 4 * half, r.m); }
+inline void gather_rows(const float* const rows[4], F4& x, F4& y, F4& z) {
+    __m128 a = _mm_load_ps(rows[0]), b = _mm_load_ps(rows[1]), c = _mm_load_ps(rows[2]), d = _mm_load_ps(rows[3]);
+    _MM_TRANSPOSE4_PS(a, b, c, d);
+    x.m = a;
+    y.m = b;
+    z.m = c;
+}
+inline void scatter_rows(float* const rows[4], F4 x, F4 y, F4 z) {
+    __m128 a = x.m, b = y.m, c = z.m, d = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(a, b, c, d);
+    _mm_store_ps(rows[0], a);
+    _mm_store_ps(rows[1], b);
+    _mm_store_ps(rows[2], c);
+    _mm_store_ps(rows[3], d);
 }
 
-/// Writes the four lanes' velocities back. Lanes may share a body only if its inverse mass and inertia
-/// are zero (static, kinematic, asleep, or the padding body): its velocity is then unchanged, so the
-/// order of the writes does not matter.
-inline void scatter_velocities(WideBody* bodies, const std::int32_t idx[kWideLanes], const BodyW& g) {
-    WideBody &b0 = bodies[idx[0]], &b1 = bodies[idx[1]], &b2 = bodies[idx[2]], &b3 = bodies[idx[3]];
-    store_rows(g.v, b0.v, b1.v, b2.v, b3.v);
-    store_rows(g.w, b0.w, b1.w, b2.w, b3.w);
+// ---- F8: AVX, eight floats (compiled for AVX here, called only when the CPU has it) --------------
+#pragma GCC push_options
+#pragma GCC target("avx")
+#define SINEW_AVX_FN inline __attribute__((target("avx"), always_inline))
+struct F8 {
+    __m256 m;
+};
+SINEW_AVX_FN F8 operator+(F8 a, F8 b) { return {_mm256_add_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 operator-(F8 a, F8 b) { return {_mm256_sub_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 operator*(F8 a, F8 b) { return {_mm256_mul_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 operator/(F8 a, F8 b) { return {_mm256_div_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 max_r(F8 a, F8 b) { return {_mm256_max_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 sqrt_r(F8 a) { return {_mm256_sqrt_ps(a.m)}; }
+SINEW_AVX_FN F8 greater_r(F8 a, F8 b) { return {_mm256_cmp_ps(a.m, b.m, _CMP_GT_OQ)}; }
+SINEW_AVX_FN F8 less_r(F8 a, F8 b) { return {_mm256_cmp_ps(a.m, b.m, _CMP_LT_OQ)}; }
+SINEW_AVX_FN F8 and_r(F8 a, F8 b) { return {_mm256_and_ps(a.m, b.m)}; }
+SINEW_AVX_FN F8 select_r(F8 mask, F8 a, F8 b) { return {_mm256_blendv_ps(b.m, a.m, mask.m)}; }
+SINEW_AVX_FN F8 splat_f8(float x) { return {_mm256_set1_ps(x)}; }
+SINEW_AVX_FN F8 load_r(const FloatW& w, int, F8*) { return {_mm256_load_ps(w.v)}; }
+SINEW_AVX_FN void store_r(FloatW& w, int, F8 r) { _mm256_store_ps(w.v, r.m); }
+/// Rows of eight bodies: bodies i and i + 4 share a 256-bit register, then each 128-bit half is
+/// transposed as in the SSE version.
+SINEW_AVX_FN void gather_rows(const float* const rows[8], F8& x, F8& y, F8& z) {
+    __m256 r[4];
+    for (int i = 0; i < 4; ++i)
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(rows[i])), _mm_load_ps(rows[i + 4]), 1);
+    __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]);  // x0 x1 y0 y1
+    __m256 t1 = _mm256_unpackhi_ps(r[0], r[1]);  // z0 z1 . .
+    __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]);  // x2 x3 y2 y3
+    __m256 t3 = _mm256_unpackhi_ps(r[2], r[3]);  // z2 z3 . .
+    x.m = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
+    y.m = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+    z.m = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
 }
+SINEW_AVX_FN void scatter_rows(float* const rows[8], F8 x, F8 y, F8 z) {
+    const __m256 zero = _mm256_setzero_ps();
+    __m256 t0 = _mm256_unpacklo_ps(x.m, y.m);  // x0 y0 x1 y1
+    __m256 t1 = _mm256_unpackhi_ps(x.m, y.m);  // x2 y2 x3 y3
+    __m256 t2 = _mm256_unpacklo_ps(z.m, zero);  // z0 0 z1 0
+    __m256 t3 = _mm256_unpackhi_ps(z.m, zero);  // z2 0 z3 0
+    __m256 r[4] = {_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)),
+                   _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2))};
+    for (int i = 0; i < 4; ++i) {
+        _mm_store_ps(rows[i], _mm256_castps256_ps128(r[i]));
+        _mm_store_ps(rows[i + 4], _mm256_extractf128_ps(r[i], 1));
+    }
+}
+#undef SINEW_AVX_FN
+#pragma GCC pop_options
+
+#endif  // SINEW_WIDE_X86
 
 }  // namespace sinew

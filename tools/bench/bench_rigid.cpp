@@ -29,12 +29,16 @@ struct SinewVariant {
     RigidSolverKind solver;
     bool warm;
     PositionCorrection correction;
+    SimdKernel simd = SimdKernel::Auto;  ///< soft step's contact kernel
 };
 
 // Soft step runs iterations/2 sub-steps: each sub-step makes two passes over the contacts (solve and
 // relax), so its cost per step matches `iterations` passes of the others.
 const SinewVariant kVariants[] = {
     {"sinew-si", "soft-step", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SoftStep},
+    // The same arithmetic in the x86-64 baseline's four lanes, for machines without AVX (bit-identical).
+    {"sinew-si", "soft-step-sse2", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SoftStep,
+     SimdKernel::Sse2},
     {"sinew-si", "warm+split", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SplitImpulse},
     {"sinew-si", "cold+split", RigidSolverKind::SequentialImpulse, false, PositionCorrection::SplitImpulse},
     {"sinew-si", "warm+baumgarte", RigidSolverKind::SequentialImpulse, true, PositionCorrection::Baumgarte},
@@ -56,6 +60,7 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     s.settings.rigid.velocity_iterations = iterations;
     s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
     s.settings.rigid.newton_contact_iterations = iterations;
+    set_simd_kernel(v.simd);
     std::vector<BodyId> ids;
     std::unique_ptr<World> world = build_world(s, &ids);
     std::vector<BodyId> dyn;
@@ -83,6 +88,8 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
         ++run.steps;
     }
     finish_run(run, ms, meter);
+    run.simd = v.correction == PositionCorrection::SoftStep ? simd_kernel_name(active_simd_kernel()) : "none";
+    set_simd_kernel(SimdKernel::Auto);
     return run;
 }
 
@@ -195,7 +202,7 @@ int cmd_bench(const std::vector<std::string>& args) {
             return false;
         };
         for (const SinewVariant& v : kVariants) {
-            if (!wanted(v.engine, v.variant)) continue;
+            if (!wanted(v.engine, v.variant) || !simd_kernel_available(v.simd)) continue;
             std::cerr << "bench: " << name << " " << v.engine << " " << v.variant << " (" << n << " steps)...\n";
             runs.push_back(run_sinew(scene, v, n, iterations));
             std::cout << to_json_line(runs.back()) << std::endl;
@@ -243,10 +250,10 @@ std::string to_json_line(const RigidRun& r) {
     std::snprintf(buf, sizeof buf,
                   "{\"scene\":\"%s\",\"engine\":\"%s\",\"variant\":\"%s\",\"bodies\":%d,\"iterations\":%d,"
                   "\"steps\":%d,\"ms_per_step_median\":%.4f,\"max_drift\":%.5f,\"stood\":%s,\"collapsed\":%s,"
-                  "\"finite\":%s}",
+                  "\"finite\":%s,\"simd\":\"%s\"}",
                   r.scene.c_str(), r.engine.c_str(), r.variant.c_str(), r.bodies, r.iterations, r.steps,
                   r.ms_per_step_median, r.max_drift, r.stood ? "true" : "false", r.collapsed ? "true" : "false",
-                  r.finite ? "true" : "false");
+                  r.finite ? "true" : "false", r.simd.c_str());
     return buf;
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "engine/world/scene.hpp"
+#include "rigid/rigid_solver.hpp"
 
 namespace sinew::bench {
 
@@ -23,6 +24,7 @@ struct RigidRun {
     bool stood = false;    ///< max_drift < 0.05 m
     bool collapsed = false;  ///< some body dropped more than 0.5 m
     bool finite = true;
+    std::string simd = "none";  ///< soft step's contact kernel (avx, sse2, portable), else "none"
 };
 
 /// Tracks drift and drop of dynamic bodies against their start positions.
