@@ -50,6 +50,7 @@ struct JointSet::Impl {
     // a joint is created or destroyed: the broad phase asks once per candidate pair.
     mutable std::vector<std::uint64_t> filter_keys;
     mutable bool filter_dirty = false;
+    std::uint64_t filter_revision = 0;  // bumped whenever the filtered pairs may change
 
     bool valid(JointId id) const {
         return !id.is_null() && id.index < generation.size() && alive[id.index] && generation[id.index] == id.generation;
@@ -72,6 +73,7 @@ struct JointSet::Impl {
         free_slots.push_back(slot);
         --count;
         filter_dirty = true;
+        ++filter_revision;
     }
     static std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) {
         if (a > b) std::swap(a, b);
@@ -212,6 +214,7 @@ JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
     m.alive[slot] = 1;
     ++m.count;
     m.filter_dirty = true;
+    ++m.filter_revision;
     return {slot, m.generation[slot]};
 }
 
@@ -237,6 +240,8 @@ void JointSet::destroy_attached(std::uint32_t slot) {
     for (std::uint32_t s = 0; s < m.joints.size(); ++s)
         if (m.alive[s] && (m.joints[s].def.body_a.index == slot || m.joints[s].def.body_b.index == slot)) m.remove(s);
 }
+
+std::uint64_t JointSet::filter_revision() const { return impl_->filter_revision; }
 
 bool JointSet::filters_pair(std::uint32_t a, std::uint32_t b) const {
     const Impl& m = *impl_;

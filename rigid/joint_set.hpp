@@ -49,6 +49,8 @@ public:
     void destroy_attached(std::uint32_t slot);
     /// Does a live joint connect the two slots with collide_connected == false? (contact filtering)
     bool filters_pair(std::uint32_t a, std::uint32_t b) const;
+    /// Changes whenever a joint is created or removed, i.e. whenever filters_pair() may answer differently.
+    std::uint64_t filter_revision() const;
     /// Body slots of every live joint (both ends), for islands: calls f(slot_a, slot_b).
     void for_each_connection(const std::function<void(std::uint32_t, std::uint32_t)>& f) const;
 

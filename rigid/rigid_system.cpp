@@ -411,17 +411,23 @@ void RigidSystem::detect_collisions(Real h) {
         if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
         tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), h * state_.v[s], margin);
     }
-    candidate_pairs_.clear();
-    tree_.all_pairs(candidate_pairs_);
-    pair_keys_.clear();
-    for (const auto& [pa, pb] : candidate_pairs_) {
-        std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
-        if (a > b) std::swap(a, b);
-        if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
-        if (joints_->filters_pair(a, b)) continue;
-        pair_keys_.push_back(pair_key(a, b));
+    // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
+    // resting scene keeps last step's sorted list (as Box2D keeps its pair set between moves).
+    if (tree_.revision() != pairs_tree_revision_ || joints_->filter_revision() != pairs_filter_revision_) {
+        pairs_tree_revision_ = tree_.revision();
+        pairs_filter_revision_ = joints_->filter_revision();
+        candidate_pairs_.clear();
+        tree_.all_pairs(candidate_pairs_);
+        pair_keys_.clear();
+        for (const auto& [pa, pb] : candidate_pairs_) {
+            std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
+            if (a > b) std::swap(a, b);
+            if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
+            if (joints_->filters_pair(a, b)) continue;
+            pair_keys_.push_back(pair_key(a, b));
+        }
+        std::sort(pair_keys_.begin(), pair_keys_.end());
     }
-    std::sort(pair_keys_.begin(), pair_keys_.end());
 
     std::swap(prev_contacts_, contacts_);
     contacts_.clear();

@@ -201,6 +201,8 @@ private:
     std::vector<Real> island_min_timer_;
     std::vector<std::uint8_t> island_awake_;
     std::vector<std::uint64_t> pair_keys_;
+    // The broad phase's pairs are recomputed only when the tree or the joint filter changed since.
+    std::uint64_t pairs_tree_revision_ = ~std::uint64_t(0), pairs_filter_revision_ = ~std::uint64_t(0);
     std::size_t alive_count_ = 0;
 
     DynamicTree tree_;

@@ -54,6 +54,7 @@ std::int32_t DynamicTree::create(const Aabb& box, std::uint32_t user_data, Real 
     n.height = 0;
     insert_leaf(leaf);
     ++proxy_count_;
+    ++revision_;
     return leaf;
 }
 
@@ -63,6 +64,7 @@ void DynamicTree::destroy(std::int32_t proxy) {
     remove_leaf(proxy);
     release(proxy);
     --proxy_count_;
+    ++revision_;
 }
 
 bool DynamicTree::move(std::int32_t proxy, const Aabb& box, const Vec3& displacement, Real margin) {
@@ -93,6 +95,7 @@ bool DynamicTree::move(std::int32_t proxy, const Aabb& box, const Vec3& displace
     }
     nodes_[proxy].box = fat;
     insert_leaf(proxy);
+    ++revision_;
     return true;
 }
 
@@ -298,36 +301,35 @@ int DynamicTree::height() const { return root_ == kNull ? 0 : nodes_[root_].heig
 // removal is needed, and disjoint subtree pairs are rejected with one box test.
 void DynamicTree::all_pairs(std::vector<std::pair<std::int32_t, std::int32_t>>& out) const {
     if (root_ == kNull) return;
-    struct Task {
-        std::int32_t a, b;  ///< a == b: pairs within subtree a; otherwise pairs across a and b
-    };
-    std::vector<Task> stack;
-    stack.reserve(64);
+    // Tasks (a, b): a == b means pairs within subtree a, otherwise pairs across a and b. The stack is
+    // a member so a step's broad phase allocates nothing once warm.
+    std::vector<std::pair<std::int32_t, std::int32_t>>& stack = pair_stack_;
+    stack.clear();
     stack.push_back({root_, root_});
     while (!stack.empty()) {
-        Task t = stack.back();
+        const auto [ta, tb] = stack.back();
         stack.pop_back();
-        const Node& na = nodes_[t.a];
-        if (t.a == t.b) {
+        const Node& na = nodes_[ta];
+        if (ta == tb) {
             if (na.is_leaf()) continue;
             stack.push_back({na.child1, na.child1});
             stack.push_back({na.child2, na.child2});
             stack.push_back({na.child1, na.child2});
             continue;
         }
-        const Node& nb = nodes_[t.b];
+        const Node& nb = nodes_[tb];
         if (!na.box.overlaps(nb.box)) continue;
         if (na.is_leaf() && nb.is_leaf()) {
-            out.emplace_back(std::min(t.a, t.b), std::max(t.a, t.b));
+            out.emplace_back(std::min(ta, tb), std::max(ta, tb));
             continue;
         }
         // Descend the larger node (by area) so both sides shrink at a similar rate.
         if (nb.is_leaf() || (!na.is_leaf() && na.box.area() >= nb.box.area())) {
-            stack.push_back({na.child1, t.b});
-            stack.push_back({na.child2, t.b});
+            stack.push_back({na.child1, tb});
+            stack.push_back({na.child2, tb});
         } else {
-            stack.push_back({t.a, nb.child1});
-            stack.push_back({t.a, nb.child2});
+            stack.push_back({ta, nb.child1});
+            stack.push_back({ta, nb.child2});
         }
     }
 }

@@ -42,6 +42,9 @@ public:
 
     int height() const;
     int proxy_count() const { return proxy_count_; }
+    /// Changes whenever the set of overlapping fat boxes may have changed (a proxy was created,
+    /// destroyed or re-inserted), so a caller can keep last step's pairs while it stays the same.
+    std::uint64_t revision() const { return revision_; }
     /// Checks parent links, heights and box containment; for tests.
     bool validate() const;
 
@@ -66,6 +69,8 @@ private:
     std::int32_t root_ = kNull;
     std::int32_t free_list_ = kNull;
     int proxy_count_ = 0;
+    std::uint64_t revision_ = 0;
+    mutable std::vector<std::pair<std::int32_t, std::int32_t>> pair_stack_;  // all_pairs scratch
 };
 
 template <class F>
