@@ -23,6 +23,13 @@ inline void st(Vec3W& w, int part, const V3& r) {
     store_r(w.z, part, r.z);
 }
 
+/// A batch part's inverse inertia rows (A or B), for I^-1 (r x d) products.
+struct InertiaR {
+    V3 r[3];
+    V3 operator*(const V3& v) const { return {dot(r[0], v), dot(r[1], v), dot(r[2], v)}; }
+};
+inline InertiaR ld(const Vec3W (&rows)[3], int part) { return {{ld(rows[0], part), ld(rows[1], part), ld(rows[2], part)}}; }
+
 /// The kR bodies of one side of a batch part: velocities (read and written), motion since the step
 /// began (read).
 struct BodyR {
@@ -59,8 +66,8 @@ inline void prepare_part(WideContact& c, const BatchInputs& in, int part) {
     const V3 n = ld(c.n, part), t[2] = {ld(c.t[0], part), ld(c.t[1], part)};
     const V3 xa = ld(in.xa, part), xb = ld(in.xb, part);
     const V3 va = ld(in.va, part), vb = ld(in.vb, part), wa = ld(in.wa, part), wb = ld(in.wb, part);
-    const V3 ia[3] = {ld(in.ia[0], part), ld(in.ia[1], part), ld(in.ia[2], part)};
-    const V3 ib[3] = {ld(in.ib[0], part), ld(in.ib[1], part), ld(in.ib[2], part)};
+    const V3 ia[3] = {ld(c.ia[0], part), ld(c.ia[1], part), ld(c.ia[2], part)};
+    const V3 ib[3] = {ld(c.ib[0], part), ld(c.ib[1], part), ld(c.ib[2], part)};
     const R inv_m_sum = ld(c.inv_m_sum, part);
     auto mul_a = [&](const V3& v) { return V3{dot(ia[0], v), dot(ia[1], v), dot(ia[2], v)}; };
     auto mul_b = [&](const V3& v) { return V3{dot(ib[0], v), dot(ib[1], v), dot(ib[2], v)}; };
@@ -73,8 +80,6 @@ inline void prepare_part(WideContact& c, const BatchInputs& in, int part) {
         const V3 ia_n = mul_a(ra_n), ib_n = mul_b(rb_n);
         st(p.ra_n, part, ra_n);
         st(p.rb_n, part, rb_n);
-        st(p.ia_n, part, ia_n);
-        st(p.ib_n, part, ib_n);
         const R kn = inv_m_sum + dot(ra_n, ia_n) + dot(rb_n, ib_n);
         st(p.normal_mass, part, select_r(and_r(has, greater_r(kn, zero)), one / max_r(kn, tiny), zero));
         for (int j = 0; j < 2; ++j) {
@@ -82,8 +87,6 @@ inline void prepare_part(WideContact& c, const BatchInputs& in, int part) {
             const V3 ia_t = mul_a(ra_t), ib_t = mul_b(rb_t);
             st(p.ra_t[j], part, ra_t);
             st(p.rb_t[j], part, rb_t);
-            st(p.ia_t[j], part, ia_t);
-            st(p.ib_t[j], part, ib_t);
             const R kt = inv_m_sum + dot(ra_t, ia_t) + dot(rb_t, ib_t);
             st(p.tangent_mass[j], part, select_r(and_r(has, greater_r(kt, zero)), one / max_r(kt, tiny), zero));
         }
@@ -103,8 +106,9 @@ inline void warm_start_all(WideContact* contacts, std::size_t count, WideBody* b
             const std::int32_t *ia = c.a + part * kR, *ib = c.b + part * kR;
             BodyR A = gather(bodies, ia), B = gather(bodies, ib);
             // The points share n and t, so their linear impulses add up before touching the velocities.
+            // The angular impulses add up too (sum of r x j), then one product with each inverse inertia.
             R pn = splat(0), p0 = splat(0), p1 = splat(0);
-            V3 dwa{pn, pn, pn}, dwb{pn, pn, pn};
+            V3 la{pn, pn, pn}, lb{pn, pn, pn};
             for (int k = 0; k < c.max_count; ++k) {
                 const WidePoint& p = c.p[k];
                 const R ln = ld(p.normal_impulse, part), l0 = ld(p.tangent_impulse[0], part),
@@ -112,14 +116,14 @@ inline void warm_start_all(WideContact* contacts, std::size_t count, WideBody* b
                 pn = pn + ln;
                 p0 = p0 + l0;
                 p1 = p1 + l1;
-                dwa = dwa + ln * ld(p.ia_n, part) + l0 * ld(p.ia_t[0], part) + l1 * ld(p.ia_t[1], part);
-                dwb = dwb + ln * ld(p.ib_n, part) + l0 * ld(p.ib_t[0], part) + l1 * ld(p.ib_t[1], part);
+                la = la + ln * ld(p.ra_n, part) + l0 * ld(p.ra_t[0], part) + l1 * ld(p.ra_t[1], part);
+                lb = lb + ln * ld(p.rb_n, part) + l0 * ld(p.rb_t[0], part) + l1 * ld(p.rb_t[1], part);
             }
             const V3 j = pn * ld(c.n, part) + p0 * ld(c.t[0], part) + p1 * ld(c.t[1], part);
             A.v = A.v - ld(c.inv_ma, part) * j;
             B.v = B.v + ld(c.inv_mb, part) * j;
-            A.w = A.w - dwa;
-            B.w = B.w + dwb;
+            A.w = A.w - ld(c.ia, part) * la;
+            B.w = B.w + ld(c.ib, part) * lb;
             scatter(bodies, ia, A);
             scatter(bodies, ib, B);
         }
@@ -137,6 +141,7 @@ inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies
             BodyR A = gather(bodies, ia), B = gather(bodies, ib);
             const V3 n = ld(c.n, part), t0 = ld(c.t[0], part), t1 = ld(c.t[1], part);
             const R inv_m_sum = ld(c.inv_m_sum, part);
+            const InertiaR ia_rows = ld(c.ia, part), ib_rows = ld(c.ib, part);
             const R dpn = dot(n, B.dp - A.dp);
             // The linear part of each row's velocity, n.(vB - vA) and t.(vB - vA), is the same for all
             // points of a manifold, and an impulse along n changes only the n part (n, t0, t1 are
@@ -175,8 +180,8 @@ inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies
                 st(p.max_normal_impulse, part, max_r(ld(p.max_normal_impulse, part), dl));
                 vn_lin = vn_lin + dl * inv_m_sum;
                 pn = pn + dl;
-                A.w = A.w - dl * ld(p.ia_n, part);
-                B.w = B.w + dl * ld(p.ib_n, part);
+                A.w = A.w - dl * (ia_rows * ra_n);
+                B.w = B.w + dl * (ib_rows * rb_n);
             }
             // Friction after the normals (Box2D v3 order within a sub-step), bounded by each point's
             // normal impulse (seed 001 ch.5), on two persistent tangents; both rows from the same
@@ -205,8 +210,8 @@ inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies
                 vt1_lin = vt1_lin + d1 * inv_m_sum;
                 p0 = p0 + d0;
                 p1 = p1 + d1;
-                A.w = A.w - (d0 * ld(p.ia_t[0], part) + d1 * ld(p.ia_t[1], part));
-                B.w = B.w + (d0 * ld(p.ib_t[0], part) + d1 * ld(p.ib_t[1], part));
+                A.w = A.w - (d0 * (ia_rows * ra_t0) + d1 * (ia_rows * ra_t1));
+                B.w = B.w + (d0 * (ib_rows * rb_t0) + d1 * (ib_rows * rb_t1));
             }
             const V3 j = pn * n + p0 * t0 + p1 * t1;
             A.v = A.v - ld(c.inv_ma, part) * j;
@@ -233,14 +238,15 @@ inline void restitution_all(WideContact* contacts, std::size_t count, WideBody* 
                 // Only impacts faster than the threshold that actually pushed (Box2D v3).
                 const R bounce = and_r(and_r(less_r(rel, min_speed), greater_r(ld(p.max_normal_impulse, part), zero)),
                                        greater_r(e, zero));
-                const R vn = dot(n, B.v - A.v) + dot(ld(p.rb_n, part), B.w) - dot(ld(p.ra_n, part), A.w);
+                const V3 ra_n = ld(p.ra_n, part), rb_n = ld(p.rb_n, part);
+                const R vn = dot(n, B.v - A.v) + dot(rb_n, B.w) - dot(ra_n, A.w);
                 const R impulse = zero - ld(p.normal_mass, part) * (vn + e * rel);
                 const R dl = select_r(bounce, max_r(old + impulse, zero) - old, zero);
                 st(p.normal_impulse, part, old + dl);
                 A.v = A.v - (dl * inv_ma) * n;
                 B.v = B.v + (dl * inv_mb) * n;
-                A.w = A.w - dl * ld(p.ia_n, part);
-                B.w = B.w + dl * ld(p.ib_n, part);
+                A.w = A.w - dl * (ld(c.ia, part) * ra_n);
+                B.w = B.w + dl * (ld(c.ib, part) * rb_n);
             }
             scatter(bodies, ia, A);
             scatter(bodies, ib, B);
