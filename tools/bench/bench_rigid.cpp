@@ -7,7 +7,6 @@
 #include "tools/bench/bench_rigid.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -52,7 +51,7 @@ std::vector<Vec3> dynamic_positions(const World& w, const std::vector<BodyId>& i
     return p;
 }
 
-RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int iterations) {
+RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int iterations, BenchClock clock) {
     SceneDesc s = scene;
     s.settings.rigid.solver = v.solver;
     s.settings.rigid.warm_starting = v.warm;
@@ -77,9 +76,9 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     std::vector<double> ms;
     ms.reserve(steps);
     for (int i = 0; i < steps; ++i) {
-        auto t0 = std::chrono::steady_clock::now();
+        const double t0 = bench_clock_ms(clock);
         world->step();
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        ms.push_back(bench_clock_ms(clock) - t0);
         if (!world->rigid().all_finite()) {
             run.finite = false;
             break;
@@ -94,14 +93,16 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
 }
 
 
-std::string markdown_table(const std::vector<RigidRun>& runs) {
+std::string markdown_table(const std::vector<RigidRun>& runs, BenchClock clock) {
     std::ostringstream md;
-    md << "| scene | engine | variant | bodies | iterations | ms/step (median) | max drift (m) | stood | collapsed |\n";
-    md << "|---|---|---|---:|---:|---:|---:|---|---|\n";
+    md << "Times are medians of per-step " << (clock == BenchClock::ThreadCpu ? "thread CPU time" : "wall time")
+       << "; `simd` is the soft step's contact kernel.\n\n";
+    md << "| scene | engine | variant | simd | bodies | iterations | ms/step (median) | max drift (m) | stood | collapsed |\n";
+    md << "|---|---|---|---|---:|---:|---:|---:|---|---|\n";
     char buf[512];
     for (const RigidRun& r : runs) {
-        std::snprintf(buf, sizeof buf, "| %s | %s | %s | %d | %d | %.3f | %.4f | %s | %s |\n", r.scene.c_str(),
-                      r.engine.c_str(), r.variant.c_str(), r.bodies, r.iterations, r.ms_per_step_median,
+        std::snprintf(buf, sizeof buf, "| %s | %s | %s | %s | %d | %d | %.3f | %.4f | %s | %s |\n", r.scene.c_str(),
+                      r.engine.c_str(), r.variant.c_str(), r.simd.c_str(), r.bodies, r.iterations, r.ms_per_step_median,
                       r.max_drift, r.stood ? "yes" : "no", r.collapsed ? "yes" : "no");
         md << buf;
     }
@@ -177,9 +178,16 @@ int cmd_bench(const std::vector<std::string>& args) {
     int steps = -1, iterations = 10;
     std::string chart, markdown, scene_dir = "demos/scenes";
     std::vector<std::string> only;  // engine or engine/variant names; empty = all
+    BenchClock clock = BenchClock::ThreadCpu;
     for (std::size_t i = 1; i < args.size(); ++i) {
         const std::string& a = args[i];
         if (tool::is_option(a, "--scenes")) scenes = split_list(tool::option_value(args, i, "--scenes"));
+        else if (tool::is_option(a, "--clock")) {
+            const std::string c = tool::option_value(args, i, "--clock");
+            if (c == "cpu") clock = BenchClock::ThreadCpu;
+            else if (c == "wall") clock = BenchClock::Wall;
+            else throw UsageError("--clock must be 'cpu' or 'wall', got '" + c + "'");
+        }
         else if (tool::is_option(a, "--steps"))
             steps = int(tool::parse_int("--steps", tool::option_value(args, i, "--steps"), 1, 10000000));
         else if (tool::is_option(a, "--iterations"))
@@ -204,17 +212,17 @@ int cmd_bench(const std::vector<std::string>& args) {
         for (const SinewVariant& v : kVariants) {
             if (!wanted(v.engine, v.variant) || !simd_kernel_available(v.simd)) continue;
             std::cerr << "bench: " << name << " " << v.engine << " " << v.variant << " (" << n << " steps)...\n";
-            runs.push_back(run_sinew(scene, v, n, iterations));
+            runs.push_back(run_sinew(scene, v, n, iterations, clock));
             std::cout << to_json_line(runs.back()) << std::endl;
         }
         if (!wanted("bullet", "default")) continue;
         std::cerr << "bench: " << name << " bullet (" << n << " steps)...\n";
-        runs.push_back(run_bullet(scene, n, iterations));
+        runs.push_back(run_bullet(scene, n, iterations, clock));
         std::cout << to_json_line(runs.back()) << std::endl;
     }
     if (!chart.empty() && !write_chart(runs, chart)) std::cerr << "sinew bench: gnuplot failed; no chart\n";
     if (!markdown.empty()) {
-        std::string body = markdown_table(runs);
+        std::string body = markdown_table(runs, clock);
         if (!chart.empty()) body += "\n![time against drift](" + relative_to(chart, markdown) + ")\n";
         if (!replace_section(markdown, "bench-rigid", body)) {
             std::cerr << "sinew bench: could not write " << markdown << "\n";
@@ -263,15 +271,16 @@ namespace sinew::tool {
 const Command bench_command = {
     "bench", bench::cmd_bench, "benchmark Sinew's solvers against Bullet in the same run",
     "usage: sinew bench rigid [--scenes a,b,...] [--engines e,e/variant,...] [--steps N] [--iterations N]\n"
-    "                         [--chart FILE.png] [--markdown FILE.md] [--scene-dir DIR]\n"
+    "                         [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"
     "\n"
     "Runs each scene (default: pyramid-10/20/40, tower-10/20, many-pyramids from demos/scenes) under\n"
     "every Sinew solver setting and under Bullet 3.24, in this process. Progress goes to stderr; one JSON\n"
     "line per (scene, engine, variant) to stdout: scene, engine, variant, bodies, iterations, steps,\n"
     "ms_per_step_median, max_drift (m, largest distance any box moved from its start during the run),\n"
-    "stood (max_drift < 0.05 m), collapsed (a box dropped > 0.5 m), finite.\n"
+    "stood (max_drift < 0.05 m), collapsed (a box dropped > 0.5 m), finite, simd (the soft step's\n"
+    "contact kernel: avx, sse2 or portable; variant soft-step-sse2 forces SSE2; none for other solvers).\n"
     "--chart draws time against drift (gnuplot); --markdown rewrites the bench-rigid section of a results\n"
-    "file such as docs/RESULTS.md.\n"
+    "file such as docs/RESULTS.md. --clock: per-step time as thread CPU time (default) or wall time.\n"
     "\n"
     "usage: sinew bench cloth [--scenes a,b,...] [--engines e,e/variant,...] [--steps N]\n"
     "                         [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"

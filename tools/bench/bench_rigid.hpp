@@ -7,6 +7,7 @@
 
 #include "engine/world/scene.hpp"
 #include "rigid/rigid_solver.hpp"
+#include "tools/bench/bench_cloth.hpp"
 
 namespace sinew::bench {
 
@@ -50,7 +51,7 @@ std::string to_json_line(const RigidRun& r);
 /// Bullet 3.24 (Debian's libbullet), configured as issue 3 prescribes: btDiscreteDynamicsWorld with the
 /// default sequential-impulse solver, `iterations` solver iterations, stepSimulation(h, 0), per-contact
 /// friction equal to Sinew's mixed friction, deactivation disabled when the scene disables sleeping.
-RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations);
+RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations, BenchClock clock);
 
 int cmd_bench(const std::vector<std::string>& args);
 

@@ -1,11 +1,11 @@
 // The Bullet side of the rigid benchmark. Bullet is linked into this tool only, never into the library.
 #include <btBulletDynamicsCommon.h>
 
-#include <chrono>
 #include <memory>
 #include <stdexcept>
 
 #include "tools/bench/bench_rigid.hpp"
+#include "tools/bench/bench_cloth.hpp"
 
 namespace sinew::bench {
 
@@ -76,7 +76,7 @@ struct BulletWorld {
 
 }  // namespace
 
-RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations) {
+RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations, BenchClock clock) {
     BulletWorld bw;
     const RigidSettings& rs = scene.settings.rigid;
     bw.world.setGravity(bt(rs.gravity));
@@ -134,9 +134,9 @@ RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations) {
     ms.reserve(steps);
     const btScalar h = btScalar(scene.settings.time_step);
     for (int i = 0; i < steps; ++i) {
-        auto t0 = std::chrono::steady_clock::now();
+        const double t0 = bench_clock_ms(clock);
         bw.world.stepSimulation(h, 0);
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        ms.push_back(bench_clock_ms(clock) - t0);
         std::vector<Vec3> p = positions();
         for (const Vec3& x : p)
             if (!is_finite(x)) run.finite = false;
