@@ -83,6 +83,7 @@ private:
     Real resolve_point(RigidSystem::State& st, const NContact& c, NPoint& p, Real e, Real h, bool frozen_a,
                        bool frozen_b, bool level_solve);
     void compute_levels(const RigidSystem& sys);
+    void propagate_shock(RigidSystem& sys, Real h);
     int level_of(std::uint32_t ci) const { return std::max(level_[contacts_[ci].a], level_[contacts_[ci].b]); }
 
     std::vector<NContact> contacts_;
@@ -296,7 +297,16 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
         for (NContact& c : contacts_)
             for (int k = 0; k < c.count; ++k) resolve_point(st, c, c.p[k], e, h, false, false, false);
     }
-    if (!set.newton_shock_propagation) return;
+    if (set.newton_shock_propagation) propagate_shock(sys, h);
+    // The impulses of this step's contact and shock-propagation passes, for events and coupling layers
+    // (the collision passes before gravity ran on manifolds of their own and are not included).
+    std::vector<ContactManifold>& dst = sys.mutable_contacts();
+    for (std::size_t i = 0; i < contacts_.size() && i < dst.size(); ++i)
+        for (int k = 0; k < contacts_[i].count; ++k) dst[i].manifold.points[k].total_normal_impulse = contacts_[i].p[k].jn;
+}
+
+void NewtonImpulseSolver::propagate_shock(RigidSystem& sys, Real h) {
+    RigidSystem::State& st = sys.state();
     // Shock propagation: level by level from the ground up, each level once, with e = 0 and the lower
     // body of a pair frozen, so the weight of a stack never pushes down into the bodies below it. A level
     // is swept until its impulses settle (see the top of the file), then it is frozen for the levels

@@ -35,6 +35,7 @@ void store_contact_impulses(const std::vector<Constraint>& constraints, std::vec
         Manifold& m = contacts[c.manifold].manifold;
         for (int k = 0; k < c.count; ++k) {
             m.points[k].normal_impulse = c.p[k].normal_impulse;
+            m.points[k].total_normal_impulse = c.p[k].normal_impulse;
             m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0];
             m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1];
         }

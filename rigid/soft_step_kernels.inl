@@ -178,6 +178,8 @@ inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies
                 const R dl = acc - old;
                 st(p.normal_impulse, part, acc);
                 st(p.max_normal_impulse, part, max_r(ld(p.max_normal_impulse, part), dl));
+                // A sub-step ends with its relax pass: what has accumulated by then is its impulse.
+                if (!use_bias) st(p.total_normal_impulse, part, ld(p.total_normal_impulse, part) + acc);
                 vn_lin = vn_lin + dl * inv_m_sum;
                 pn = pn + dl;
                 A.w = A.w - dl * (ia_rows * ra_n);
@@ -243,6 +245,7 @@ inline void restitution_all(WideContact* contacts, std::size_t count, WideBody* 
                 const R impulse = zero - ld(p.normal_mass, part) * (vn + e * rel);
                 const R dl = select_r(bounce, max_r(old + impulse, zero) - old, zero);
                 st(p.normal_impulse, part, old + dl);
+                st(p.total_normal_impulse, part, ld(p.total_normal_impulse, part) + dl);
                 A.v = A.v - (dl * inv_ma) * n;
                 B.v = B.v + (dl * inv_mb) * n;
                 A.w = A.w - dl * (ld(c.ia, part) * ra_n);

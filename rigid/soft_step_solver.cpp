@@ -51,6 +51,7 @@ struct WidePoint {
     Vec3W ra_t[2], rb_t[2];
     FloatW normal_mass, tangent_mass[2];
     FloatW normal_impulse, tangent_impulse[2], max_normal_impulse;
+    FloatW total_normal_impulse;  // summed over the step's sub-steps (each ends with a relax pass)
     FloatW base_separation;    // separation at detection (negative = overlap)
     FloatW relative_velocity;  // normal velocity at the start of the step (restitution)
 };
@@ -274,6 +275,7 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
                 for (FloatW* f : {&p.normal_impulse, &p.tangent_impulse[0], &p.tangent_impulse[1], &p.base_separation})
                     f->set_lane(l, 0);
             }
+            p.total_normal_impulse.set_lane(l, 0);
         }
     }
     kernels_.prepare(c, in);
@@ -311,6 +313,7 @@ void SoftStepSolver::store_impulses(RigidSystem& sys) const {
             Manifold& m = dst[c.manifold[l]].manifold;
             for (int k = 0; k < c.count[l]; ++k) {
                 m.points[k].normal_impulse = c.p[k].normal_impulse.lane(l);
+                m.points[k].total_normal_impulse = c.p[k].total_normal_impulse.lane(l);
                 m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0].lane(l);
                 m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1].lane(l);
             }

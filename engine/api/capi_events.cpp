@@ -171,7 +171,7 @@ void WorldEvents::gather_contacts(std::uint64_t step) {
                         e.point = to_c(c.manifold.points[0].position);
                         e.normal = to_c(nrm);
                     }
-                    for (int q = 0; q < c.manifold.count; ++q) impulse += c.manifold.points[q].normal_impulse;
+                    for (int q = 0; q < c.manifold.count; ++q) impulse += c.manifold.points[q].total_normal_impulse;
                 }
                 e.normal_impulse = float(impulse);
                 begin_.push_back(e);

@@ -309,13 +309,12 @@ typedef struct sinew_contact_begin_event {
     sinew_body_id body_a, body_b;
     sinew_vec3 point;       /* m, world: the first contact point */
     sinew_vec3 normal;      /* unit, from A to B */
-    float normal_impulse;   /* N s, summed over the pair's points: the solver's accumulated normal impulse at
-                               the end of that step. With SINEW_SOLVER_SPLIT_IMPULSE, _BAUMGARTE and _NEWTON
-                               it is the step's impulse (m |v_before| + m g h - m |v_after| for a box
-                               landing: a speculative contact begins while a gap is still open, so the
-                               first step may only close it and the next stops the box). With the
-                               default SINEW_SOLVER_SOFT_STEP it is the last sub-step's impulse (that solver
-                               keeps per-sub-step impulses), so it understates an impact. */
+    float normal_impulse;   /* N s, summed over the pair's points: the normal impulse the solver applied
+                               over that whole step (summed over the soft step's sub-steps), i.e.
+                               m |v_before| + m g h - m |v_after| for a box landing. A speculative contact
+                               begins while a gap is still open, so the first step may only close it and
+                               the next stops the box. With SINEW_SOLVER_NEWTON it counts the contact and
+                               shock-propagation passes, not the elastic collision passes before them. */
     uint64_t step;          /* the world's step count after the step it happened in */
 } sinew_contact_begin_event;
 

@@ -18,6 +18,10 @@ struct ContactPoint {
     // Accumulated impulses carried across steps for warm starting (N·s).
     Real normal_impulse = 0;
     Real tangent_impulse[2] = {0, 0};
+    /// Normal impulse the solver applied at this point over the whole last step (N·s). Equal to
+    /// normal_impulse for one-pass solvers; the soft step keeps per-sub-step impulses in normal_impulse
+    /// and sums them here. Events and coupling layers read this one.
+    Real total_normal_impulse = 0;
 };
 
 /// Up to four points sharing one normal, pointing from shape A to shape B.
