@@ -1,6 +1,6 @@
 // Graph colouring of contact constraints (Box2D v3's constraint graph, Catto 2024): constraints of one
-// colour share no moving body, so a colour can be solved four at a time with one SIMD instruction per
-// operation and no write conflicts. Immovable bodies (static, kinematic, asleep) may appear in many
+// colour share no moving body, so a colour can be solved eight (AVX) or four (SSE2) at a time with one
+// SIMD instruction per operation and no write conflicts. Immovable bodies (static, kinematic, asleep) may appear in many
 // constraints of one colour: the solver never changes their velocities.
 #pragma once
 
@@ -11,8 +11,8 @@ namespace sinew {
 
 class ConstraintColouring {
 public:
-    /// Box2D v3 uses 24 colours; a box in a pyramid touches six others, which greedy colouring fits in
-    /// about a dozen.
+    /// Box2D v3 uses 24 colours; a box in a pyramid touches six others, and greedy colouring fits
+    /// pyramid-40's 2,380 manifolds in 6.
     static constexpr int kColours = 24;
     /// The colour returned for a constraint that fits no colour; the solver runs those one at a time.
     static constexpr int kOverflow = kColours;

@@ -9,11 +9,13 @@
 // first order, s = s0 + n.(dp_B - dp_A) + (r_B x n).dth_B - (r_A x n).dth_A, with dp and dth the
 // translation and rotation vector accumulated since the step began: the Jacobian row applied to the
 // displacement, as NVIDIA's TGS solver does. It needs no rotated anchors, so a body's solver state is
-// four rows (v, w, dp, dth) that a 4x4 transpose gathers.
+// four rows (v, w, dp, dth) that 4x4 transposes gather.
 //
-// Manifolds are graph-coloured (rigid/constraint_colouring.hpp) and a colour is solved four manifolds at
-// a time, one per SIMD lane (rigid/wide_float.hpp), as Box2D v3 does. Manifolds that fit no colour run
-// one per batch. Measured on pyramid-40 (820 boxes, 2,380 manifolds): see the commit message.
+// Manifolds are graph-coloured (rigid/constraint_colouring.hpp) and a colour is solved eight manifolds
+// at a time, one per SIMD lane (rigid/wide_float.hpp, kernels in rigid/soft_step_kernels.inl), as Box2D
+// v3 does. Manifolds that fit no colour run one per batch. Pairs of two immovable bodies (asleep, or
+// asleep on static ground) are left out: nothing can move them, and their warm-start impulses are kept
+// for when they wake. Measured on pyramid-40 (820 boxes, 2,380 manifolds): docs/rigid-solvers.md.
 #include <algorithm>
 #include <atomic>
 #include <vector>
@@ -108,7 +110,7 @@ inline R splat(Real x) { return splat_f8(x); }
 #pragma GCC pop_options
 #endif
 
-/// The kernels of one register type, called once per pass (never per constraint).
+/// The kernels of one register type: prepare once per batch, the others once per pass over all batches.
 struct Kernels {
     void (*prepare)(WideContact&, const BatchInputs&);
     void (*warm_start)(WideContact*, std::size_t, WideBody*);
@@ -155,14 +157,20 @@ public:
     void correct_positions(RigidSystem& sys, Real h) override;
 
 private:
-    void colour(const RigidSystem& sys);
-    void prepare(const RigidSystem& sys, Real h_sub);
+    void colour(RigidSystem& sys);
+    void prepare(RigidSystem& sys, Real h_sub);
     /// Prepares batch c from up to kWideLanes manifolds of one colour (`lanes` of them).
     void fill_batch(WideContact& c, const std::uint32_t* manifolds, int lanes, const RigidSystem& sys,
                     const Softness& soft, const Softness& static_soft);
     void warm_start() { kernels_.warm_start(contacts_.data(), contacts_.size(), bodies_.data()); }
     void solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
         kernels_.solve(contacts_.data(), contacts_.size(), bodies_.data(), inv_h_sub, push_velocity, use_bias);
+    }
+    void clear_impulses() {
+        for (WideContact& c : contacts_)
+            for (int k = 0; k < c.max_count; ++k)
+                for (FloatW* f : {&c.p[k].normal_impulse, &c.p[k].tangent_impulse[0], &c.p[k].tangent_impulse[1]})
+                    *f = FloatW{};
     }
     void restitution(Real threshold) { kernels_.restitution(contacts_.data(), contacts_.size(), bodies_.data(), threshold); }
     void store_impulses(RigidSystem& sys) const;
@@ -182,15 +190,21 @@ private:
     Real h_sub_ = 0;
 };
 
-void SoftStepSolver::colour(const RigidSystem& sys) {
+void SoftStepSolver::colour(RigidSystem& sys) {
     const RigidSystem::State& st = sys.state();
     const auto& src = sys.contacts();
     colouring_.reset(st.x.size());
     for (auto& list : by_colour_) list.clear();
     for (std::size_t ci = 0; ci < src.size(); ++ci) {
         const std::uint32_t a = src[ci].body_a, b = src[ci].body_b;
-        const int c = colouring_.assign(a, st.inv_mass[a] > 0, b, st.inv_mass[b] > 0);
-        by_colour_[c].push_back(std::uint32_t(ci));
+        const bool a_moves = st.inv_mass[a] > 0, b_moves = st.inv_mass[b] > 0;
+        if (!a_moves && !b_moves) {
+            // Nothing can move either body: no constraint, nothing applied this step.
+            ContactManifold& cm = sys.mutable_contacts()[ci];
+            for (int k = 0; k < cm.manifold.count; ++k) cm.manifold.points[k].total_normal_impulse = 0;
+            continue;
+        }
+        by_colour_[colouring_.assign(a, a_moves, b, b_moves)].push_back(std::uint32_t(ci));
     }
 }
 
@@ -281,7 +295,7 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
     kernels_.prepare(c, in);
 }
 
-void SoftStepSolver::prepare(const RigidSystem& sys, Real h_sub) {
+void SoftStepSolver::prepare(RigidSystem& sys, Real h_sub) {
     const RigidSettings& set = sys.settings();
     // Contact stiffness is capped at a quarter of the sub-step rate (Box2D v3).
     const Real hertz = std::min(set.contact_hertz, Real(0.25) / h_sub);
@@ -365,7 +379,10 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
             joints.solve(sys, true);
         }
         bodies_from_state(st);
+        // Without warm starting each sub-step starts from zero impulses: keeping the last sub-step's
+        // accumulated impulse without applying it would let the clamp pull and inflate the friction bound.
         if (set.warm_starting) warm_start();
+        else if (i > 0) clear_impulses();
         solve(inv_h_sub, set.contact_push_velocity, true);
         if (i + 1 == n_sub) break;  // the last sub-step's positions wait for IntegratePositions
         integrate_and_relax(sys);

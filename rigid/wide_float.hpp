@@ -5,8 +5,8 @@
 //   F8 (AVX, 8 floats): compiled for AVX with a target pragma and used only if the CPU has AVX;
 //   F4 (SSE2, 4 floats): the x86-64 baseline, so it needs no compiler flag; a batch is two halves;
 //   G4 (4 Reals in a plain array): double precision and other architectures.
-// No fused multiply-add is used, so every kernel rounds exactly the same way: the AVX and SSE2 kernels
-// give bit-identical results (tests/test_rigid_simd.cpp checks it).
+// No fused multiply-add is used (the solver's file is compiled with -ffp-contract=off), so every kernel
+// rounds exactly the same way and all give bit-identical results (tests/test_rigid_simd.cpp checks it).
 #pragma once
 
 #include <cmath>
@@ -14,8 +14,10 @@
 
 #include "engine/core/math.hpp"
 
+// GCC only: the AVX kernels rely on `#pragma GCC target`, which clang ignores (clang builds use the
+// portable kernel).
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && !defined(SINEW_DOUBLE) && \
-    (defined(__GNUC__) || defined(__clang__))
+    defined(__GNUC__) && !defined(__clang__)
 #define SINEW_WIDE_X86 1
 #include <immintrin.h>
 #else

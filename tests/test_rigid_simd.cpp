@@ -1,8 +1,8 @@
 // The soft step solver's contact kernels (portable, SSE2, AVX: rigid/wide_float.hpp) do the same
 // arithmetic in lanes of different widths without fused multiply-adds, so a scene must come out bit for
 // bit the same under each. The scene mixes what the kernels treat differently: restitution (its own
-// pass), a kinematic body (immovable but moving, shared by many lanes), sleeping off and on, boxes and
-// spheres with manifolds of 1 to 4 points, and more manifolds than one batch holds.
+// pass), a kinematic body (immovable but moving, shared by many lanes), boxes and spheres with manifolds
+// of 1 to 4 points, and more manifolds than one batch holds.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -17,8 +17,16 @@ using namespace sinew;
 
 namespace {
 
+/// Forces a kernel for its lifetime, so a failing assertion does not leave it forced for later tests.
+struct ForceKernel {
+    explicit ForceKernel(SimdKernel k) : ok(set_simd_kernel(k)) {}
+    ~ForceKernel() { set_simd_kernel(SimdKernel::Auto); }
+    bool ok;
+};
+
 std::vector<Real> run_scene(SimdKernel kernel) {
-    REQUIRE(set_simd_kernel(kernel));
+    ForceKernel force(kernel);
+    REQUIRE(force.ok);
     WorldSettings ws;
     ws.time_step = Real(1) / 60;
     World world(ws);
@@ -51,7 +59,6 @@ std::vector<Real> run_scene(SimdKernel kernel) {
         for (int k = 0; k < 3; ++k) out.insert(out.end(), {xf.p[k], v[k], w[k]});
         out.insert(out.end(), {xf.q.w(), xf.q.x(), xf.q.y(), xf.q.z()});
     }
-    set_simd_kernel(SimdKernel::Auto);
     return out;
 }
 
@@ -78,7 +85,8 @@ TEST_CASE("a body with more contacts than colours: the overflow manifolds hold t
     for (SimdKernel k : {SimdKernel::Portable, SimdKernel::Sse2, SimdKernel::Avx}) {
         if (!simd_kernel_available(k)) continue;
         INFO("kernel " << simd_kernel_name(k));
-        REQUIRE(set_simd_kernel(k));
+        ForceKernel force(k);
+        REQUIRE(force.ok);
         World world;
         RigidSystem& rs = world.rigid();
         BodyDef ground;
@@ -105,7 +113,6 @@ TEST_CASE("a body with more contacts than colours: the overflow manifolds hold t
         for (BodyId id : boxes) worst = std::max(worst, std::abs(double(rs.transform(id).p.y()) - 0.3));
         CHECK(worst < 5e-3);
     }
-    set_simd_kernel(SimdKernel::Auto);
 }
 
 TEST_CASE("an unavailable kernel is refused and the choice is unchanged", "[rigid][simd]") {

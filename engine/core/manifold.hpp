@@ -18,9 +18,10 @@ struct ContactPoint {
     // Accumulated impulses carried across steps for warm starting (N·s).
     Real normal_impulse = 0;
     Real tangent_impulse[2] = {0, 0};
-    /// Normal impulse the solver applied at this point over the whole last step (N·s). Equal to
-    /// normal_impulse for one-pass solvers; the soft step keeps per-sub-step impulses in normal_impulse
-    /// and sums them here. Events and coupling layers read this one.
+    /// Normal impulse the solver applied at this point over the whole last step (N·s). Split impulses
+    /// and Baumgarte copy normal_impulse; the soft step keeps per-sub-step impulses in normal_impulse
+    /// and sums them here; the Newtonian solver (no warm starting) writes its contact and shock passes'
+    /// impulse. Events and coupling layers read this one.
     Real total_normal_impulse = 0;
 };
 

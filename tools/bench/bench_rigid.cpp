@@ -59,7 +59,11 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     s.settings.rigid.velocity_iterations = iterations;
     s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
     s.settings.rigid.newton_contact_iterations = iterations;
-    set_simd_kernel(v.simd);
+    // Forced for this run only, also if building the world throws.
+    struct KernelChoice {
+        explicit KernelChoice(SimdKernel k) { set_simd_kernel(k); }
+        ~KernelChoice() { set_simd_kernel(SimdKernel::Auto); }
+    } kernel_choice(v.simd);
     std::vector<BodyId> ids;
     std::unique_ptr<World> world = build_world(s, &ids);
     std::vector<BodyId> dyn;
@@ -88,7 +92,6 @@ RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int
     }
     finish_run(run, ms, meter);
     run.simd = v.correction == PositionCorrection::SoftStep ? simd_kernel_name(active_simd_kernel()) : "none";
-    set_simd_kernel(SimdKernel::Auto);
     return run;
 }
 
