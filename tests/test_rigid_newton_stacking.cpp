@@ -8,40 +8,19 @@
 // under this solver settles by well under a millimetre per layer (docs/rigid-solvers.md).
 #include <catch2/catch.hpp>
 
-#include "engine/world/scene.hpp"
+#include "tests/test_stack_util.hpp"
 
 using namespace sinew;
+using sinew::test::StackRun;
 
 namespace {
 
-struct StackRun {
-    double max_drift = 0;
-    double max_kinetic_energy_late = 0;  // over the second half of the run
-};
-
 StackRun run_newton(const std::string& name, int steps = 600, bool shock = true) {
-    SceneDesc scene = parse_scene_file(std::string(SINEW_SOURCE_DIR) + "/demos/scenes/" + name + ".json");
+    SceneDesc scene = sinew::test::load_stack_scene(name);
     scene.settings.rigid.solver = RigidSolverKind::Newton;
     scene.settings.rigid.newton_contact_iterations = 10;  // the benchmark's count
     scene.settings.rigid.newton_shock_propagation = shock;
-    std::vector<BodyId> ids;
-    auto world = build_world(scene, &ids);
-    std::vector<Vec3> start;
-    std::vector<BodyId> dyn;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (scene.bodies[i].def.type == BodyType::Dynamic) {
-            dyn.push_back(ids[i]);
-            start.push_back(world->rigid().transform(ids[i]).p);
-        }
-    StackRun r;
-    for (int s = 0; s < steps; ++s) {
-        world->step();
-        for (std::size_t i = 0; i < dyn.size(); ++i)
-            r.max_drift = std::max(r.max_drift, double((world->rigid().transform(dyn[i]).p - start[i]).norm()));
-        if (s >= steps / 2)
-            r.max_kinetic_energy_late = std::max(r.max_kinetic_energy_late, world->rigid().kinetic_energy());
-    }
-    return r;
+    return sinew::test::run_stack(scene, steps);
 }
 
 }  // namespace

@@ -17,6 +17,14 @@ using namespace sinew;
 
 namespace {
 
+void add_ground(RigidSystem& rs) {
+    BodyDef ground;
+    ground.type = BodyType::Static;
+    ground.shape = make_box(Vec3(20, 0.5, 20));
+    ground.pose.p = Vec3(0, -0.5, 0);
+    rs.create_body(ground);
+}
+
 /// Forces a kernel for its lifetime, so a failing assertion does not leave it forced for later tests.
 struct ForceKernel {
     explicit ForceKernel(SimdKernel k) : ok(set_simd_kernel(k)) {}
@@ -31,11 +39,7 @@ std::vector<Real> run_scene(SimdKernel kernel) {
     ws.time_step = Real(1) / 60;
     World world(ws);
     RigidSystem& rs = world.rigid();
-    BodyDef ground;
-    ground.type = BodyType::Static;
-    ground.shape = make_box(Vec3(20, 0.5, 20));
-    ground.pose.p = Vec3(0, -0.5, 0);
-    rs.create_body(ground);
+    add_ground(rs);
     BodyDef paddle;
     paddle.type = BodyType::Kinematic;
     paddle.shape = make_box(Vec3(3, 0.1, 0.5));
@@ -89,11 +93,7 @@ TEST_CASE("a body with more contacts than colours: the overflow manifolds hold t
         REQUIRE(force.ok);
         World world;
         RigidSystem& rs = world.rigid();
-        BodyDef ground;
-        ground.type = BodyType::Static;
-        ground.shape = make_box(Vec3(20, 0.5, 20));
-        ground.pose.p = Vec3(0, -0.5, 0);
-        rs.create_body(ground);
+        add_ground(rs);
         BodyDef slab;
         slab.shape = make_box(Vec3(4, 0.1, 3));
         slab.pose.p = Vec3(0, 0.1, 0);

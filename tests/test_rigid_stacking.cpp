@@ -5,39 +5,17 @@
 // of a soft contact under the weight of 20 boxes is about a millimetre per layer.
 #include <catch2/catch.hpp>
 
-#include "engine/world/scene.hpp"
+#include "tests/test_stack_util.hpp"
 
 using namespace sinew;
+using sinew::test::StackRun;
 
 namespace {
 
-struct StackRun {
-    double max_drift = 0;
-    double final_kinetic_energy = 0;
-    double max_kinetic_energy_late = 0;  // over the last 5 s
-};
-
 StackRun run_scene(const std::string& name, bool warm = true, int steps = 600) {
-    SceneDesc scene = parse_scene_file(std::string(SINEW_SOURCE_DIR) + "/demos/scenes/" + name + ".json");
+    SceneDesc scene = sinew::test::load_stack_scene(name);
     scene.settings.rigid.warm_starting = warm;
-    std::vector<BodyId> ids;
-    auto world = build_world(scene, &ids);
-    std::vector<Vec3> start;
-    std::vector<BodyId> dyn;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (scene.bodies[i].def.type == BodyType::Dynamic) {
-            dyn.push_back(ids[i]);
-            start.push_back(world->rigid().transform(ids[i]).p);
-        }
-    StackRun r;
-    for (int s = 0; s < steps; ++s) {
-        world->step();
-        for (std::size_t i = 0; i < dyn.size(); ++i)
-            r.max_drift = std::max(r.max_drift, double((world->rigid().transform(dyn[i]).p - start[i]).norm()));
-        if (s >= steps / 2) r.max_kinetic_energy_late = std::max(r.max_kinetic_energy_late, world->rigid().kinetic_energy());
-    }
-    r.final_kinetic_energy = world->rigid().kinetic_energy();
-    return r;
+    return sinew::test::run_stack(scene, steps);
 }
 
 }  // namespace

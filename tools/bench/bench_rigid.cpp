@@ -44,57 +44,80 @@ const SinewVariant kVariants[] = {
     {"sinew-newton", "shock", RigidSolverKind::Newton, false, PositionCorrection::SplitImpulse},
 };
 
-std::vector<Vec3> dynamic_positions(const World& w, const std::vector<BodyId>& ids) {
-    std::vector<Vec3> p;
-    p.reserve(ids.size());
-    for (BodyId id : ids) p.push_back(w.rigid().transform(id).p);
-    return p;
-}
-
-RigidRun run_sinew(const SceneDesc& scene, const SinewVariant& v, int steps, int iterations, BenchClock clock) {
-    SceneDesc s = scene;
-    s.settings.rigid.solver = v.solver;
-    s.settings.rigid.warm_starting = v.warm;
-    s.settings.rigid.correction = v.correction;
-    s.settings.rigid.velocity_iterations = iterations;
-    s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
-    s.settings.rigid.newton_contact_iterations = iterations;
-    // Forced for this run only, also if building the world throws.
-    struct KernelChoice {
-        explicit KernelChoice(SimdKernel k) { set_simd_kernel(k); }
-        ~KernelChoice() { set_simd_kernel(SimdKernel::Auto); }
-    } kernel_choice(v.simd);
-    std::vector<BodyId> ids;
-    std::unique_ptr<World> world = build_world(s, &ids);
-    std::vector<BodyId> dyn;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (s.bodies[i].def.type == BodyType::Dynamic) dyn.push_back(ids[i]);
-    DriftMeter meter;
-    meter.start(dynamic_positions(*world, dyn));
-    RigidRun run;
-    run.scene = scene.name;
-    run.engine = v.engine;
-    run.variant = v.variant;
-    run.bodies = int(dyn.size());
-    run.iterations = iterations;
-    std::vector<double> ms;
-    ms.reserve(steps);
-    for (int i = 0; i < steps; ++i) {
-        const double t0 = bench_clock_ms(clock);
-        world->step();
-        ms.push_back(bench_clock_ms(clock) - t0);
-        if (!world->rigid().all_finite()) {
-            run.finite = false;
-            break;
+class SinewContender final : public RigidContender {
+public:
+    SinewContender(const SceneDesc& scene, const SinewVariant& v, int iterations) : simd_(v.simd) {
+        SceneDesc s = scene;
+        s.settings.rigid.solver = v.solver;
+        s.settings.rigid.warm_starting = v.warm;
+        s.settings.rigid.correction = v.correction;
+        s.settings.rigid.velocity_iterations = iterations;
+        s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
+        s.settings.rigid.newton_contact_iterations = iterations;
+        std::vector<BodyId> ids;
+        world_ = build_world(s, &ids);
+        for (std::size_t i = 0; i < ids.size(); ++i)
+            if (s.bodies[i].def.type == BodyType::Dynamic) dyn_.push_back(ids[i]);
+        run.scene = scene.name;
+        run.engine = v.engine;
+        run.variant = v.variant;
+        run.bodies = int(dyn_.size());
+        run.iterations = iterations;
+        if (v.correction == PositionCorrection::SoftStep) {
+            set_simd_kernel(simd_);
+            run.simd = simd_kernel_name(active_simd_kernel());
+            set_simd_kernel(SimdKernel::Auto);
         }
-        meter.sample(dynamic_positions(*world, dyn));
-        ++run.steps;
     }
-    finish_run(run, ms, meter);
-    run.simd = v.correction == PositionCorrection::SoftStep ? simd_kernel_name(active_simd_kernel()) : "none";
-    return run;
-}
+    void step() override {
+        // The kernel choice is process-wide: forced around this contender's step only.
+        set_simd_kernel(simd_);
+        world_->step();
+        set_simd_kernel(SimdKernel::Auto);
+    }
+    std::vector<Vec3> positions() const override {
+        std::vector<Vec3> p;
+        p.reserve(dyn_.size());
+        for (BodyId id : dyn_) p.push_back(world_->rigid().transform(id).p);
+        return p;
+    }
 
+private:
+    std::unique_ptr<World> world_;
+    std::vector<BodyId> dyn_;
+    SimdKernel simd_;
+};
+
+/// Steps every contender `steps` times, in alternating chunks of kChunk steps, timing each step with
+/// `clock`; fills each contender's run (median time, drift, stood, collapsed, finite).
+void race(std::vector<std::unique_ptr<RigidContender>>& contenders, int steps, BenchClock clock) {
+    constexpr int kChunk = 20;  // long enough to keep each engine's caches warm, short next to the drift
+    const std::size_t n = contenders.size();
+    std::vector<DriftMeter> meters(n);
+    std::vector<std::vector<double>> ms(n);
+    for (std::size_t c = 0; c < n; ++c) {
+        meters[c].start(contenders[c]->positions());
+        ms[c].reserve(std::size_t(steps));
+    }
+    for (int begin = 0; begin < steps; begin += kChunk) {
+        const int end = std::min(steps, begin + kChunk);
+        for (std::size_t c = 0; c < n; ++c) {
+            RigidContender& k = *contenders[c];
+            for (int i = begin; i < end && k.run.finite; ++i) {
+                const double t0 = bench_clock_ms(clock);
+                k.step();
+                ms[c].push_back(bench_clock_ms(clock) - t0);
+                const std::vector<Vec3> p = k.positions();
+                for (const Vec3& x : p)
+                    if (!is_finite(x)) k.run.finite = false;
+                if (!k.run.finite) break;
+                meters[c].sample(p);
+                ++k.run.steps;
+            }
+        }
+    }
+    for (std::size_t c = 0; c < n; ++c) finish_run(contenders[c]->run, ms[c], meters[c]);
+}
 
 std::string markdown_table(const std::vector<RigidRun>& runs, BenchClock clock) {
     std::ostringstream md;
@@ -109,18 +132,28 @@ std::string markdown_table(const std::vector<RigidRun>& runs, BenchClock clock) 
                       r.max_drift, r.stood ? "yes" : "no", r.collapsed ? "yes" : "no");
         md << buf;
     }
-    // Speed ratio against Bullet from the same run, per scene.
-    md << "\n| scene | Sinew default (soft-step) ms | stood | Bullet ms | stood | Bullet / Sinew |\n"
-          "|---|---:|---|---:|---|---:|\n";
+    // Speed ratio against Bullet from the same run, per scene, with the widest kernel and with SSE2.
+    md << "\n| scene | Sinew default (soft-step) ms | stood | SSE2 kernel ms | Bullet ms | stood | Bullet / Sinew | "
+          "Bullet / Sinew SSE2 |\n|---|---:|---|---:|---:|---|---:|---:|\n";
+    auto find = [&](const std::string& scene, const char* engine, const char* variant) -> const RigidRun* {
+        for (const RigidRun& r : runs)
+            if (r.scene == scene && r.engine == engine && r.variant == variant) return &r;
+        return nullptr;
+    };
     for (const RigidRun& s : runs) {
-        if (s.engine != "sinew-si" || s.variant != "soft-step") continue;
-        for (const RigidRun& b : runs)
-            if (b.engine == "bullet" && b.scene == s.scene && s.ms_per_step_median > 0) {
-                std::snprintf(buf, sizeof buf, "| %s | %.3f | %s | %.3f | %s | %.2f |\n", s.scene.c_str(),
-                              s.ms_per_step_median, s.stood ? "yes" : "no", b.ms_per_step_median,
-                              b.stood ? "yes" : "no", b.ms_per_step_median / s.ms_per_step_median);
-                md << buf;
-            }
+        if (s.engine != "sinew-si" || s.variant != "soft-step" || s.ms_per_step_median <= 0) continue;
+        const RigidRun* b = find(s.scene, "bullet", "default");
+        if (!b) continue;
+        const RigidRun* sse = find(s.scene, "sinew-si", "soft-step-sse2");
+        char sse_ms[32] = "-", sse_ratio[32] = "-";
+        if (sse && sse->ms_per_step_median > 0) {
+            std::snprintf(sse_ms, sizeof sse_ms, "%.3f", sse->ms_per_step_median);
+            std::snprintf(sse_ratio, sizeof sse_ratio, "%.2f", b->ms_per_step_median / sse->ms_per_step_median);
+        }
+        std::snprintf(buf, sizeof buf, "| %s | %.3f | %s | %s | %.3f | %s | %.2f | %s |\n", s.scene.c_str(),
+                      s.ms_per_step_median, s.stood ? "yes" : "no", sse_ms, b->ms_per_step_median,
+                      b->stood ? "yes" : "no", b->ms_per_step_median / s.ms_per_step_median, sse_ratio);
+        md << buf;
     }
     return md.str();
 }
@@ -212,16 +245,18 @@ int cmd_bench(const std::vector<std::string>& args) {
                 if (o == engine || o == engine + "/" + variant) return true;
             return false;
         };
-        for (const SinewVariant& v : kVariants) {
-            if (!wanted(v.engine, v.variant) || !simd_kernel_available(v.simd)) continue;
-            std::cerr << "bench: " << name << " " << v.engine << " " << v.variant << " (" << n << " steps)...\n";
-            runs.push_back(run_sinew(scene, v, n, iterations, clock));
+        std::vector<std::unique_ptr<RigidContender>> contenders;
+        for (const SinewVariant& v : kVariants)
+            if (wanted(v.engine, v.variant) && simd_kernel_available(v.simd))
+                contenders.push_back(std::make_unique<SinewContender>(scene, v, iterations));
+        if (wanted("bullet", "default")) contenders.push_back(make_bullet_contender(scene, iterations));
+        std::cerr << "bench: " << name << ": " << contenders.size() << " engine settings, " << n
+                  << " steps each, stepped in alternating chunks...\n";
+        race(contenders, n, clock);
+        for (const auto& c : contenders) {
+            runs.push_back(c->run);
             std::cout << to_json_line(runs.back()) << std::endl;
         }
-        if (!wanted("bullet", "default")) continue;
-        std::cerr << "bench: " << name << " bullet (" << n << " steps)...\n";
-        runs.push_back(run_bullet(scene, n, iterations, clock));
-        std::cout << to_json_line(runs.back()) << std::endl;
     }
     if (!chart.empty() && !write_chart(runs, chart)) std::cerr << "sinew bench: gnuplot failed; no chart\n";
     if (!markdown.empty()) {

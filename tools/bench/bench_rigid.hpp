@@ -2,6 +2,7 @@
 // the same run on the same machine.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -48,10 +49,22 @@ std::vector<std::string> split_list(const std::string& s);
 void finish_run(RigidRun& run, const std::vector<double>& ms, const DriftMeter& meter);
 std::string to_json_line(const RigidRun& r);
 
+/// One engine, with one setting, stepping one scene. The driver steps all contenders of a scene in
+/// alternating chunks of steps, so each sees the same machine conditions (a shared VM's speed drifts
+/// by tens of percent over seconds; one after the other, two runs of the same code differed by 2x).
+class RigidContender {
+public:
+    virtual ~RigidContender() = default;
+    virtual void step() = 0;
+    /// Positions of the dynamic bodies, in a fixed order.
+    virtual std::vector<Vec3> positions() const = 0;
+    RigidRun run;  ///< identity (scene, engine, variant, bodies, iterations) set by the maker
+};
+
 /// Bullet 3.24 (Debian's libbullet), configured as issue 3 prescribes: btDiscreteDynamicsWorld with the
 /// default sequential-impulse solver, `iterations` solver iterations, stepSimulation(h, 0), per-contact
 /// friction equal to Sinew's mixed friction, deactivation disabled when the scene disables sleeping.
-RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations, BenchClock clock);
+std::unique_ptr<RigidContender> make_bullet_contender(const SceneDesc& scene, int iterations);
 
 int cmd_bench(const std::vector<std::string>& args);
 

@@ -1,11 +1,11 @@
 // The Bullet side of the rigid benchmark. Bullet is linked into this tool only, never into the library.
 #include <btBulletDynamicsCommon.h>
 
+#include <cmath>
 #include <memory>
 #include <stdexcept>
 
 #include "tools/bench/bench_rigid.hpp"
-#include "tools/bench/bench_cloth.hpp"
 
 namespace sinew::bench {
 
@@ -76,76 +76,71 @@ struct BulletWorld {
 
 }  // namespace
 
-RigidRun run_bullet(const SceneDesc& scene, int steps, int iterations, BenchClock clock) {
-    BulletWorld bw;
-    const RigidSettings& rs = scene.settings.rigid;
-    bw.world.setGravity(bt(rs.gravity));
-    bw.world.getSolverInfo().m_numIterations = iterations;
-    std::vector<btRigidBody*> dynamic;
-    for (const SceneBody& sb : scene.bodies) {
-        const BodyDef& d = sb.def;
-        btCollisionShape* shape = bw.make_shape(d.shape);
-        btScalar mass = 0;
-        btVector3 inertia(0, 0, 0);
-        if (d.type == BodyType::Dynamic) {
-            // Bullet places the shape at the body origin; Sinew's generators use centred shapes, so
-            // origin and centre of mass coincide for every benchmark body.
-            mass = btScalar(d.mass > 0 ? d.mass : 1);
-            shape->calculateLocalInertia(mass, inertia);
+namespace {
+
+class BulletContender final : public RigidContender {
+public:
+    BulletContender(const SceneDesc& scene, int iterations) : h_(btScalar(scene.settings.time_step)) {
+        const RigidSettings& rs = scene.settings.rigid;
+        bw_.world.setGravity(bt(rs.gravity));
+        bw_.world.getSolverInfo().m_numIterations = iterations;
+        for (const SceneBody& sb : scene.bodies) {
+            const BodyDef& d = sb.def;
+            btCollisionShape* shape = bw_.make_shape(d.shape);
+            btScalar mass = 0;
+            btVector3 inertia(0, 0, 0);
+            if (d.type == BodyType::Dynamic) {
+                // Bullet places the shape at the body origin; Sinew's generators use centred shapes, so
+                // origin and centre of mass coincide for every benchmark body.
+                mass = btScalar(d.mass > 0 ? d.mass : 1);
+                shape->calculateLocalInertia(mass, inertia);
+            }
+            bw_.motion.push_back(std::make_unique<btDefaultMotionState>(btTransform(bt(d.pose.q), bt(d.pose.p))));
+            btRigidBody::btRigidBodyConstructionInfo info(mass, bw_.motion.back().get(), shape, inertia);
+            // Bullet multiplies the two bodies' friction; the square root makes the per-contact value the
+            // geometric mean, the same mixing rule as Sinew (0.6 and 0.6 give 0.6).
+            info.m_friction = btScalar(std::sqrt(d.material.friction));
+            info.m_restitution = btScalar(d.material.restitution);
+            info.m_linearDamping = btScalar(d.linear_damping);
+            info.m_angularDamping = btScalar(d.angular_damping);
+            bw_.bodies.push_back(std::make_unique<btRigidBody>(info));
+            btRigidBody* body = bw_.bodies.back().get();
+            if (d.type == BodyType::Kinematic)
+                body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
+            if (d.type == BodyType::Dynamic) {
+                body->setLinearVelocity(bt(d.linear_velocity));
+                body->setAngularVelocity(bt(d.angular_velocity));
+                if (!rs.sleeping) body->setActivationState(DISABLE_DEACTIVATION);
+                dynamic_.push_back(body);
+            }
+            bw_.world.addRigidBody(body);
         }
-        bw.motion.push_back(std::make_unique<btDefaultMotionState>(btTransform(bt(d.pose.q), bt(d.pose.p))));
-        btRigidBody::btRigidBodyConstructionInfo info(mass, bw.motion.back().get(), shape, inertia);
-        // Bullet multiplies the two bodies' friction; the square root makes the per-contact value the
-        // geometric mean, the same mixing rule as Sinew (0.6 and 0.6 give 0.6).
-        info.m_friction = btScalar(std::sqrt(d.material.friction));
-        info.m_restitution = btScalar(d.material.restitution);
-        info.m_linearDamping = btScalar(d.linear_damping);
-        info.m_angularDamping = btScalar(d.angular_damping);
-        bw.bodies.push_back(std::make_unique<btRigidBody>(info));
-        btRigidBody* body = bw.bodies.back().get();
-        if (d.type == BodyType::Kinematic) {
-            body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
-        }
-        if (d.type == BodyType::Dynamic) {
-            body->setLinearVelocity(bt(d.linear_velocity));
-            body->setAngularVelocity(bt(d.angular_velocity));
-            if (!rs.sleeping) body->setActivationState(DISABLE_DEACTIVATION);
-            dynamic.push_back(body);
-        }
-        bw.world.addRigidBody(body);
+        run.scene = scene.name;
+        run.engine = "bullet";
+        run.variant = "default";
+        run.bodies = int(dynamic_.size());
+        run.iterations = iterations;
     }
-    auto positions = [&] {
-        std::vector<Vec3> p(dynamic.size());
-        for (std::size_t i = 0; i < dynamic.size(); ++i) {
-            const btVector3& o = dynamic[i]->getWorldTransform().getOrigin();
+    void step() override { bw_.world.stepSimulation(h_, 0); }
+    std::vector<Vec3> positions() const override {
+        std::vector<Vec3> p(dynamic_.size());
+        for (std::size_t i = 0; i < dynamic_.size(); ++i) {
+            const btVector3& o = dynamic_[i]->getWorldTransform().getOrigin();
             p[i] = Vec3(Real(o.x()), Real(o.y()), Real(o.z()));
         }
         return p;
-    };
-    DriftMeter meter;
-    meter.start(positions());
-    RigidRun run;
-    run.scene = scene.name;
-    run.engine = "bullet";
-    run.variant = "default";
-    run.bodies = int(dynamic.size());
-    run.iterations = iterations;
-    std::vector<double> ms;
-    ms.reserve(steps);
-    const btScalar h = btScalar(scene.settings.time_step);
-    for (int i = 0; i < steps; ++i) {
-        const double t0 = bench_clock_ms(clock);
-        bw.world.stepSimulation(h, 0);
-        ms.push_back(bench_clock_ms(clock) - t0);
-        std::vector<Vec3> p = positions();
-        for (const Vec3& x : p)
-            if (!is_finite(x)) run.finite = false;
-        meter.sample(p);
-        ++run.steps;
-        if (!run.finite) break;
     }
-    finish_run(run, ms, meter);
-    return run;
+
+private:
+    BulletWorld bw_;
+    std::vector<btRigidBody*> dynamic_;
+    btScalar h_;
+};
+
+}  // namespace
+
+std::unique_ptr<RigidContender> make_bullet_contender(const SceneDesc& scene, int iterations) {
+    return std::make_unique<BulletContender>(scene, iterations);
 }
 
 }  // namespace sinew::bench
