@@ -207,6 +207,8 @@ private:
 
     DynamicTree tree_;
     std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;
+    std::vector<Transform> detect_xf_;  ///< per slot: where DetectCollisions places the body this step
+    std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
     ManifoldList scratch_;
