@@ -17,12 +17,6 @@
 
 namespace sinew {
 
-/// Attachment targets are rigid BodyIds packed in 64 bits (the soft layer keeps them opaque).
-inline std::uint64_t pack_body_id(BodyId id) { return (std::uint64_t(id.generation) << 32) | id.index; }
-inline BodyId unpack_body_id(std::uint64_t v) {
-    return {static_cast<std::uint32_t>(v & 0xffffffffu), static_cast<std::uint32_t>(v >> 32)};
-}
-
 class OneWayCoupling {
 public:
     /// Registers the hook; `rigid` and `soft` must already be systems of `pipeline`.

@@ -25,6 +25,13 @@ struct BodyId {
     bool operator!=(const BodyId& o) const { return !(*this == o); }
 };
 
+/// A BodyId in 64 bits, for layers that keep rigid bodies as opaque numbers (a soft body's attachment
+/// targets, the C API's handles).
+inline std::uint64_t pack_body_id(BodyId id) { return (std::uint64_t(id.generation) << 32) | id.index; }
+inline BodyId unpack_body_id(std::uint64_t v) {
+    return {static_cast<std::uint32_t>(v & 0xffffffffu), static_cast<std::uint32_t>(v >> 32)};
+}
+
 struct Material {
     Real friction = Real(0.6);     ///< Coulomb coefficient (dimensionless), >= 0
     Real restitution = 0;          ///< [0, 1]

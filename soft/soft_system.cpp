@@ -158,6 +158,51 @@ void SoftSystem::set_pinned(SoftBodyId id, std::uint32_t i, bool pinned) {
     b.sleep_timer = 0;
 }
 
+bool SoftSystem::attached(SoftBodyId id, std::uint32_t i) const {
+    check(id, "attached");
+    const SoftBody& b = bodies_[id.index];
+    check_particle(b, i, "attached");
+    for (const Attachment& a : b.attachments)
+        if (a.particle == i) return true;
+    return false;
+}
+
+void SoftSystem::attach(SoftBodyId id, std::uint32_t i, std::uint64_t target, const Vec3& local_point) {
+    check(id, "attach");
+    SoftBody& b = bodies_[id.index];
+    check_particle(b, i, "attach");
+    if (!is_finite(local_point)) throw SoftError("attach: local_point must be finite, got " + to_text(local_point));
+    Attachment* slot = nullptr;
+    for (Attachment& a : b.attachments)
+        if (a.particle == i) slot = &a;
+    if (!slot) {
+        b.attachments.emplace_back();  // may throw bad_alloc: nothing else has changed yet
+        slot = &b.attachments.back();
+    }
+    *slot = Attachment{};
+    slot->particle = i;
+    slot->target = target;
+    slot->local_point = local_point;
+    // Kinematic from now on: the coupling layer writes the frame before the next soft step, which moves the
+    // particle onto the point (follow_attachments).
+    b.p.inv_mass[i] = 0;
+    b.p.v[i].setZero();
+    if (b.def.long_range_attachments) build_long_range_attachments(b);  // tethers follow the pins
+    b.awake = true;
+    b.sleep_timer = 0;
+}
+
+void SoftSystem::detach(SoftBodyId id, std::uint32_t i) {
+    if (!attached(id, i)) throw SoftError("detach: particle " + std::to_string(i) + " is not attached");
+    SoftBody& b = bodies_[id.index];
+    for (std::size_t k = 0; k < b.attachments.size(); ++k)
+        if (b.attachments[k].particle == i) {
+            b.attachments.erase(b.attachments.begin() + static_cast<std::ptrdiff_t>(k));
+            break;
+        }
+    set_pinned(id, i, false);  // free again; also wakes the body
+}
+
 std::size_t SoftSystem::particle_count() const {
     std::size_t n = 0;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)

@@ -63,6 +63,15 @@ public:
     /// Pins (inverse mass 0) or frees particle `i` and rebuilds the body's long-range attachments if it
     /// has them. Throws SoftError for an attached particle (its attachment decides).
     void set_pinned(SoftBodyId id, std::uint32_t i, bool pinned);
+    /// Attaches particle `i` to the point `local_point` of an outside body `target` (an opaque 64-bit id,
+    /// a packed rigid BodyId for the coupling layers), replacing an earlier attachment of that particle.
+    /// The particle becomes kinematic: the coupling layer writes the frame before the next soft step and
+    /// the particle follows it. Throws SoftError (nothing changed) for a bad id, index or point.
+    void attach(SoftBodyId id, std::uint32_t i, std::uint64_t target, const Vec3& local_point);
+    /// Frees an attached particle (it becomes dynamic again). Throws SoftError if it is not attached.
+    void detach(SoftBodyId id, std::uint32_t i);
+    /// Is particle `i` attached to an outside body? Throws SoftError for a bad id or index.
+    bool attached(SoftBodyId id, std::uint32_t i) const;
 
     /// The colliders of this step. A coupling layer (or a test) refills it before IntegratePositions. Their
     /// shape pointers are valid during the step only (they point into the rigid system, whose arrays may

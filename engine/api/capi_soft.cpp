@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "coupling/one_way_coupling.hpp"
 #include "engine/api/capi_internal.hpp"
 #include "soft/soft_integrators.hpp"
 #include "engine/core/format.hpp"
@@ -153,12 +152,6 @@ sinew_status check_particle(const Target& t, int particle, const char* fn) {
         return invalid(fn, "particle = " + std::to_string(particle) + " is out of range (" + std::to_string(n) +
                                " particles)");
     return SINEW_OK;
-}
-
-bool attached(const SoftBody& b, std::uint32_t particle) {
-    for (const Attachment& a : b.attachments)
-        if (a.particle == particle) return true;
-    return false;
 }
 
 }  // namespace
@@ -349,7 +342,7 @@ sinew_status sinew_soft_set_pinned(sinew_soft_body_id body, int particle, int pi
         if (sinew_status s = check_particle(t, particle, fn)) return s;
         if (pinned != 0 && pinned != 1) return invalid(fn, "pinned = " + std::to_string(pinned) + " must be 0 or 1");
         const std::uint32_t i = static_cast<std::uint32_t>(particle);
-        if (attached(t.world->soft().body(t.body), i))
+        if (t.world->soft().attached(t.body, i))
             return invalid(fn, "particle = " + std::to_string(particle) + " is attached to a rigid body; detach it first");
         t.world->soft().set_pinned(t.body, i, pinned == 1);
         return SINEW_OK;
@@ -373,25 +366,7 @@ sinew_status sinew_soft_attach(sinew_soft_body_id body, int particle, sinew_body
                                                   ", generation " + std::to_string(rigid_body.generation) +
                                                   "} is null or destroyed");
         if (!finite(local_point)) return invalid(fn, "local_point = " + vec_text(local_point) + " must be finite");
-        SoftBody& b = t.world->soft().body(t.body);
-        const std::uint32_t i = static_cast<std::uint32_t>(particle);
-        Attachment* slot = nullptr;
-        for (Attachment& a : b.attachments)
-            if (a.particle == i) slot = &a;
-        if (!slot) {
-            b.attachments.emplace_back();  // may throw bad_alloc: nothing else has changed yet
-            slot = &b.attachments.back();
-        }
-        *slot = Attachment{};
-        slot->particle = i;
-        slot->target = pack_body_id(rb);
-        slot->local_point = to_vec(local_point);
-        // Kinematic from now on: the coupling layer writes the frame before the next soft step, which
-        // moves the particle onto the point (soft/soft_system.cpp follow_attachments).
-        b.p.inv_mass[i] = 0;
-        if (b.def.long_range_attachments) build_long_range_attachments(b);  // tethers follow the pins
-        b.p.v[i].setZero();
-        t.world->soft().wake(t.body);
+        t.world->soft().attach(t.body, static_cast<std::uint32_t>(particle), pack_body_id(rb), to_vec(local_point));
         return SINEW_OK;
     });
 }
@@ -402,15 +377,10 @@ sinew_status sinew_soft_detach(sinew_soft_body_id body, int particle) {
         Target t = target(body, fn, true);
         if (t.status) return t.status;
         if (sinew_status s = check_particle(t, particle, fn)) return s;
-        SoftBody& b = t.world->soft().body(t.body);
         const std::uint32_t i = static_cast<std::uint32_t>(particle);
-        if (!attached(b, i)) return invalid(fn, "particle = " + std::to_string(particle) + " is not attached");
-        for (std::size_t k = 0; k < b.attachments.size(); ++k)
-            if (b.attachments[k].particle == i) {
-                b.attachments.erase(b.attachments.begin() + static_cast<std::ptrdiff_t>(k));
-                break;
-            }
-        t.world->soft().set_pinned(t.body, i, false);  // free again; also wakes the body
+        if (!t.world->soft().attached(t.body, i))
+            return invalid(fn, "particle = " + std::to_string(particle) + " is not attached");
+        t.world->soft().detach(t.body, i);
         return SINEW_OK;
     });
 }

@@ -22,7 +22,7 @@
 #include <fstream>
 #include <unordered_map>
 
-#include "coupling/one_way_coupling.hpp"
+#include "rigid/rigid_body.hpp"
 #include "engine/core/mass_properties.hpp"
 #include "engine/world/scene.hpp"
 #include "engine/world/scene_json.hpp"

@@ -3,7 +3,7 @@
 // its pins and its attachments naming rigid bodies "body-SLOT", and its method, solver and material.
 // Nothing is recomputed on loading except what SoftSystem::create_body derives from these (inverse
 // masses, long-range attachments from the links and pins).
-#include "coupling/one_way_coupling.hpp"
+#include "rigid/rigid_body.hpp"
 #include "engine/world/scene_json.hpp"
 #include "engine/world/scene.hpp"
 #include "engine/world/world.hpp"
