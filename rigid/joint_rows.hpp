@@ -19,6 +19,7 @@
 #include <limits>
 #include <vector>
 
+#include "rigid/constraint_rows.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_system.hpp"
 
@@ -114,8 +115,7 @@ struct JointRows {
 /// velocities, or pseudo-velocities in a position projection pass), how bilateral rows and violated
 /// limits remove position error, and whether motors and springs act.
 struct RowPass {
-    std::vector<Vec3>& v;
-    std::vector<Vec3>& w;
+    BodyVelocities vel;
     Softness bias;      ///< {} = no position bias (relax pass, or velocity pass before a projection)
     bool drive = true;  ///< motors and springs: velocity passes only, never in a projection pass
 };
@@ -125,16 +125,16 @@ struct RowPass {
 struct PairVelocity {
     Vec3 va, wa, vb, wb;
     PairVelocity(const RowPass& pass, const JointRows& r)
-        : va(pass.v[r.a]), wa(pass.w[r.a]), vb(pass.v[r.b]), wb(pass.w[r.b]) {}
+        : va(pass.vel.linear(r.a)), wa(pass.vel.angular(r.a)), vb(pass.vel.linear(r.b)), wb(pass.vel.angular(r.b)) {}
     void store(RowPass& pass, const JointRows& r) const {
         // Immovable bodies keep their velocities (a kinematic body's is the game's).
         if (r.ma != 0) {
-            pass.v[r.a] = va;
-            pass.w[r.a] = wa;
+            pass.vel.set_linear(r.a, va);
+            pass.vel.set_angular(r.a, wa);
         }
         if (r.mb != 0) {
-            pass.v[r.b] = vb;
-            pass.w[r.b] = wb;
+            pass.vel.set_linear(r.b, vb);
+            pass.vel.set_angular(r.b, wb);
         }
     }
 };

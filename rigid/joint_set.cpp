@@ -41,7 +41,7 @@ struct JointSet::Impl {
     Real h = 0;                           // the length given to the last prepare()
     Softness velocity_bias;               // of the rows in biased velocity passes
     Softness projection_bias;             // of the rows in the position projection pass
-    RigidSystem* sys = nullptr;           // the system given to prepare(), for finish()'s projection
+    std::vector<JointId> broken;          // joints broken by the last finish()
     std::vector<std::uint32_t> moving;    // bodies of the active joints that can move, each once
     std::vector<std::uint8_t> mark;       // by body slot, scratch for `moving`
     std::vector<Vec3> pv, pw;             // pseudo-velocities of the projection pass, by body slot
@@ -317,13 +317,16 @@ void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
     j.def.max_motor_force = max_force;
 }
 
-void JointSet::prepare(RigidSystem& sys, Real h, const JointSoftness& softness, bool warm) {
+void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();
+    const Real h = step.h;
+    const RowSoftness& softness = step.softness;
+    const bool warm = step.warm_starting;
     m.h = h;
-    m.sys = &sys;
     m.active.clear();
     m.moving.clear();
+    if (m.count == 0) return;  // nothing to prepare (and no per-body scratch to clear)
     // How position error is removed this step:
     // - Soft (a sub-stepping solver asked for soft joints): Catto 2011 soft rows in its biased passes.
     // - Projection (sequential impulses with split impulses and warm starting, the default): the velocity
@@ -425,38 +428,38 @@ void solve_joint(const JointData& j, JointImpulses& acc, const JointRows& r, con
 
 }  // namespace
 
-void JointSet::warm_start(RigidSystem& sys) {
+void JointSet::warm_start(const RigidSystem& sys, const BodyVelocities& vel) {
     Impl& m = *impl_;
-    RigidSystem::State& st = sys.state();
-    RowPass pass{st.v, st.w, Softness{}, true};
+    const RigidSystem::State& st = sys.state();
+    RowPass pass{vel, Softness{}, true};
     for (std::uint32_t s : m.active)
         if (m.alive[s]) warm_start_joint(m.joints[s], m.rows[s], st, pass);  // skip joints destroyed since prepare()
 }
 
-void JointSet::solve(RigidSystem& sys, bool use_bias) {
+void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) {
     Impl& m = *impl_;
-    RigidSystem::State& st = sys.state();
-    RowPass pass{st.v, st.w, use_bias ? m.velocity_bias : Softness{}, true};
+    const RigidSystem::State& st = sys.state();
+    RowPass pass{vel, use_bias ? m.velocity_bias : Softness{}, true};
     const int sweeps = m.correction == Impl::Correction::Soft ? kSoftSweeps : 1;
     for (int k = 0; k < sweeps; ++k)
         for (std::uint32_t s : m.active)
             if (m.alive[s]) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, pass);
 }
 
-void JointSet::project_positions() {
+void JointSet::project_positions(RigidSystem& sys) {
     // Non-linear Gauss-Seidel on positions (Box2D v2, Jolt): each sweep solves every joint once on
     // pseudo-velocities that start at zero, with the Baumgarte fraction of the CURRENT error as target,
     // then moves the bodies by h times them, so the next sweep sees the corrected error. Velocities are
     // untouched: no energy is added.
     Impl& m = *impl_;
-    RigidSystem::State& st = m.sys->state();
+    RigidSystem::State& st = sys.state();
     const Real h = m.h;
     for (int sweep = 0; sweep < kProjectionSweeps; ++sweep) {
         for (std::uint32_t b : m.moving) {
             m.pv[b].setZero();
             m.pw[b].setZero();
         }
-        RowPass pass{m.pv, m.pw, m.projection_bias, false};
+        RowPass pass{BodyVelocities::of_arrays(m.pv, m.pw), m.projection_bias, false};
         for (std::uint32_t s : m.active) {
             if (!m.alive[s]) continue;
             JointImpulses acc;  // pseudo-impulses live for one sweep
@@ -469,10 +472,13 @@ void JointSet::project_positions() {
     }
 }
 
-void JointSet::finish(Real /*h*/, std::vector<JointId>& broken) {
+const std::vector<JointId>& JointSet::broken() const { return impl_->broken; }
+
+void JointSet::finish(RigidSystem& sys, Real /*h*/) {
     Impl& m = *impl_;
-    if (!(m.h > 0)) return;  // nothing prepared yet
-    if (m.correction == Impl::Correction::Projection && m.sys) project_positions();
+    m.broken.clear();
+    if (!(m.h > 0) || m.active.empty()) return;  // nothing prepared
+    if (m.correction == Impl::Correction::Projection) project_positions(sys);
     // Impulses are per prepared (sub-)step, so the force is impulse / that step's length.
     const Real inv_h = 1 / m.h;
     for (std::uint32_t s : m.active) {
@@ -502,11 +508,11 @@ void JointSet::finish(Real /*h*/, std::vector<JointId>& broken) {
         j.reaction_torque = inv_h * t;
         const Real limit = j.def.break_force;
         if (limit > 0 && (j.reaction_force.norm() > limit || j.reaction_torque.norm() > limit)) {
-            broken.push_back({s, m.generation[s]});
+            m.broken.push_back({s, m.generation[s]});
             m.remove(s);
         }
     }
-    m.sys = nullptr;
+    m.active.clear();  // finished: a second finish() without a prepare() does nothing
 }
 
 }  // namespace sinew

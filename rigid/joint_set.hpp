@@ -1,39 +1,30 @@
-// The joints of a rigid system and their solver rows. Solvers call, per step or sub-step:
-//   prepare()   once, with the step (or sub-step) length: anchors, axes, effective masses, biases
+// The joints of a rigid system and their solver rows: the first source of outside rows
+// (rigid/constraint_rows.hpp), called by every solver like any other source:
+//   prepare()    once per step, with the (sub-)step length: anchors, axes, effective masses, biases
 //   warm_start() once per (sub-)step, before iterating, if warm starting is on
-//   solve()     in each iteration, interleaved with the contacts (joints first, as Box2D does)
-//   finish()    once per step, after integration: position projection (split-impulse mode), reaction
-//               forces, and breakable joints whose constraint force exceeded the threshold break
-// Velocities are read and written in the RigidSystem::State arrays; poses are read from it, so a
-// sub-stepping solver that integrated positions sees the current error. The row math is in
-// rigid/joint_rows.hpp and rigid/joint_<type>.cpp.
+//   solve()      in each iteration, before the contacts (Box2D's order)
+//   finish()     once per step, after integration: position projection (split-impulse mode), reaction
+//                forces, and breakable joints whose constraint force exceeded the threshold break
+// Velocities are read and written through the solver's BodyVelocities view; poses are read from the
+// system's state, so a sub-stepping solver that integrated positions shows the rows the current error.
+// The row math is in rigid/joint_rows.hpp and rigid/joint_<type>.cpp.
 #pragma once
 
 #include <functional>
 #include <memory>
 #include <vector>
 
+#include "rigid/constraint_rows.hpp"
 #include "rigid/joint.hpp"
 
 namespace sinew {
 
 class RigidSystem;
 
-/// How joint position error is removed.
-struct JointSoftness {
-    /// false: Baumgarte's fraction beta of the error per step, as a velocity bias -(beta/h) C, or, with
-    /// sequential impulses and split impulses, as a position projection after the step (finish());
-    /// true: Catto 2011 soft constraint of `hertz` and `damping_ratio` in the biased passes.
-    bool soft = false;
-    Real baumgarte = Real(0.2);
-    Real hertz = 60;          ///< soft: stiffness (Hz), capped at half the (sub-)step rate
-    Real damping_ratio = 2;   ///< soft
-};
-
-class JointSet {
+class JointSet final : public ConstraintRows {
 public:
     JointSet();
-    ~JointSet();
+    ~JointSet() override;
     JointSet(const JointSet&) = delete;
     JointSet& operator=(const JointSet&) = delete;
 
@@ -73,18 +64,21 @@ public:
     /// bodies: call RigidSystem::wake if they may be asleep.
     void set_motor(JointId id, bool enable, Real speed, Real max_force);
 
-    void prepare(RigidSystem& sys, Real h, const JointSoftness& softness, bool warm);
-    void warm_start(RigidSystem& sys);
-    void solve(RigidSystem& sys, bool use_bias);
+    // ---- ConstraintRows -----------------------------------------------------------------------------
+    void prepare(RigidSystem& sys, const RowStep& step) override;
+    void warm_start(const RigidSystem& sys, const BodyVelocities& vel) override;
+    void solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) override;
     /// Once per step, after positions are integrated: projects the joints' position error out when
-    /// prepare() chose projection (sequential impulses with split impulses: the system given to prepare()
-    /// is updated), records each joint's reaction force, and breaks joints over their break_force,
-    /// appending their ids to `broken`. `h` is the full step; the impulses are divided by the length
-    /// given to prepare() (the sub-step for a sub-stepping solver), which is what they accumulated over.
-    void finish(Real h, std::vector<JointId>& broken);
+    /// prepare() chose projection (sequential impulses with split impulses), records each joint's reaction
+    /// force, and breaks joints over their break_force (broken() lists them until the next finish()).
+    /// The impulses are divided by the length given to prepare() (the sub-step for a sub-stepping
+    /// solver), which is what they accumulated over.
+    void finish(RigidSystem& sys, Real h) override;
+    /// Joints that broke in the last finish().
+    const std::vector<JointId>& broken() const;
 
 private:
-    void project_positions();  ///< finish()'s position projection (see joint_set.cpp)
+    void project_positions(RigidSystem& sys);  ///< finish()'s position projection (see joint_set.cpp)
     struct Impl;  // joints and their prepared rows, defined in joint_set.cpp
     std::unique_ptr<Impl> impl_;
 };

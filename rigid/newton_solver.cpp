@@ -24,7 +24,7 @@
 #include <cmath>
 #include <vector>
 
-#include "rigid/joint_set.hpp"
+#include "rigid/constraint_rows.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -287,12 +287,14 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     gather(sys, h);
     RigidSystem::State& st = sys.state();
     const int iters = set.newton_contact_iterations;
-    // Joints: velocity constraints with a Baumgarte bias, one pass before each contact pass.
-    JointSet& joints = sys.joints();
-    const bool have_joints = joints.count() > 0;
-    if (have_joints) joints.prepare(sys, h, JointSoftness{false, set.baumgarte, 0, 0}, false);
+    // Joints and other outside rows: velocity constraints with a Baumgarte bias, one pass before each
+    // contact pass, on the system's own arrays (this solver has no copy of the bodies).
+    const RowStep step{h, h, 1, false, RowSoftness{false, set.baumgarte, 0, 0}};
+    const std::vector<ConstraintRows*>& sources = sys.row_sources();
+    for (ConstraintRows* rows : sources) rows->prepare(sys, step);
+    const BodyVelocities vel = BodyVelocities::of_arrays(st.v, st.w);
     for (int i = 1; i <= iters; ++i) {
-        if (have_joints) joints.solve(sys, true);
+        for (ConstraintRows* rows : sources) rows->solve(sys, vel, true);
         const Real e = Real(i) / Real(iters) - 1;  // rises from -1 + 1/N to 0
         for (NContact& c : contacts_)
             for (int k = 0; k < c.count; ++k) resolve_point(st, c, c.p[k], e, h, false, false, false);

@@ -40,6 +40,7 @@ const char* position_correction_name(PositionCorrection c) {
 }
 
 RigidSystem::RigidSystem(const RigidSettings& settings) : joints_(std::make_unique<JointSet>()) {
+    row_sources_.push_back(joints_.get());
     set_settings(settings);
 }
 
@@ -298,6 +299,20 @@ void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
     state_.w[s] += r * inv_inertia_local_[s] * r.transpose() * (p - state_.x[s]).cross(j);
 }
 
+const std::vector<JointId>& RigidSystem::broken_joints() const { return joints_->broken(); }
+
+void RigidSystem::add_rows(ConstraintRows* rows) {
+    if (!rows) throw RigidError("add_rows: rows is null");
+    if (std::find(row_sources_.begin(), row_sources_.end(), rows) != row_sources_.end())
+        throw RigidError("add_rows: this source of rows was already added");
+    row_sources_.push_back(rows);
+}
+
+void RigidSystem::remove_rows(ConstraintRows* rows) {
+    if (rows == joints_.get()) return;  // the joints stay
+    row_sources_.erase(std::remove(row_sources_.begin(), row_sources_.end(), rows), row_sources_.end());
+}
+
 JointId RigidSystem::create_joint(const JointDef& def) {
     JointId id = joints_->create(def, *this);
     if (valid(def.body_a)) wake_island(def.body_a.index);
@@ -365,7 +380,6 @@ bool RigidSystem::all_finite() const {
 void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
     switch (stage) {
         case Stage::IntegrateVelocities:
-            broken_joints_.clear();
             prepare_mass_state();
             solver_->before_integrate_velocities(*this, ctx.h);
             if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
@@ -582,8 +596,13 @@ void RigidSystem::integrate_positions(Real h) {
         state_.force[s].setZero();
         state_.torque[s].setZero();
     }
+    if (integrate) {
+        // The soft step tells the sources after each of its sub-steps; the others move once per step.
+        const BodyVelocities vel = BodyVelocities::of_arrays(state_.v, state_.w);
+        for (ConstraintRows* rows : row_sources_) rows->positions_advanced(*this, vel, h);
+    }
     solver_->correct_positions(*this, h);
-    joints_->finish(h, broken_joints_);
+    for (ConstraintRows* rows : row_sources_) rows->finish(*this, h);
     if (settings_.sleeping) update_sleep(h);
 }
 

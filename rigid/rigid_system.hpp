@@ -43,6 +43,7 @@ struct ContactManifold {
 
 class RigidSolver;
 class JointSet;
+class ConstraintRows;
 
 class RigidSystem final : public System {
 public:
@@ -97,8 +98,19 @@ public:
     void destroy_joint(JointId id);
     JointSet& joints() { return *joints_; }
     const JointSet& joints() const { return *joints_; }
-    /// Joints that broke during the last step (cleared at the start of each step).
-    const std::vector<JointId>& broken_joints() const { return broken_joints_; }
+    /// Joints that broke during the last step.
+    const std::vector<JointId>& broken_joints() const;
+
+    // ---- rows from outside the manifolds (rigid/constraint_rows.hpp) ---------------------------------
+    /// Adds a source of constraint rows that every solver solves in each of its iterations, before the
+    /// contacts, after the joints and the sources added earlier (a coupling layer's particle contacts, a
+    /// proxy's rows). Not owned: remove it before it is destroyed. Throws RigidError if it is null or
+    /// already added.
+    void add_rows(ConstraintRows* rows);
+    /// Removes a source added by add_rows (nothing happens if it is not there).
+    void remove_rows(ConstraintRows* rows);
+    /// The sources in solve order: the joints first.
+    const std::vector<ConstraintRows*>& row_sources() const { return row_sources_; }
 
     // ---- queries (rigid/rigid_queries.cpp); all bodies count, asleep or not -------------------------
     struct RayResult {
@@ -214,7 +226,7 @@ private:
     ManifoldList scratch_;
     std::unique_ptr<RigidSolver> solver_;
     std::unique_ptr<JointSet> joints_;
-    std::vector<JointId> broken_joints_;
+    std::vector<ConstraintRows*> row_sources_;  ///< joints_ first, then add_rows() order
 };
 
 }  // namespace sinew

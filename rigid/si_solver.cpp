@@ -13,7 +13,7 @@
 #include <cmath>
 #include <vector>
 
-#include "rigid/joint_set.hpp"
+#include "rigid/constraint_rows.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -225,39 +225,18 @@ void SequentialImpulseSolver::store_impulses(RigidSystem& sys) {
 void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     const RigidSettings& set = sys.settings();
     prepare(sys, h);
-    // Joints work on the system's velocity arrays; with joints present the solver's copies are synced
-    // around each joint pass (a copy of n bodies, cheap next to the contact rows).
-    JointSet& joints = sys.joints();
-    const bool have_joints = joints.count() > 0;
-    RigidSystem::State& st = sys.state();
-    auto to_state = [&] {
-        for (std::size_t i = 0; i < bodies_.size(); ++i) {
-            st.v[i] = bodies_[i].v;
-            st.w[i] = bodies_[i].w;
-        }
-    };
-    auto from_state = [&] {
-        for (std::size_t i = 0; i < bodies_.size(); ++i) {
-            bodies_[i].v = st.v[i];
-            bodies_[i].w = st.w[i];
-        }
-    };
-    if (have_joints) joints.prepare(sys, h, JointSoftness{false, set.baumgarte, 0, 0}, set.warm_starting);
+    // Joints and other outside rows (rigid/constraint_rows.hpp) work on the solver's own bodies.
+    const RowStep step{h, h, 1, set.warm_starting, RowSoftness{false, set.baumgarte, 0, 0}};
+    const std::vector<ConstraintRows*>& sources = sys.row_sources();
+    for (ConstraintRows* rows : sources) rows->prepare(sys, step);
+    const BodyVelocities vel = BodyVelocities::of(bodies_, &SolverBody::v, &SolverBody::w);
     if (set.warm_starting) {
         warm_start();
-        if (have_joints) {
-            to_state();
-            joints.warm_start(sys);
-            from_state();
-        }
+        for (ConstraintRows* rows : sources) rows->warm_start(sys, vel);
     }
     const bool split = set.correction == PositionCorrection::SplitImpulse;
     for (int it = 0; it < set.velocity_iterations; ++it) {
-        if (have_joints) {  // joints first, then contacts (Box2D's order)
-            to_state();
-            joints.solve(sys, true);
-            from_state();
-        }
+        for (ConstraintRows* rows : sources) rows->solve(sys, vel, true);  // outside rows first (Box2D's order)
         solve_iteration(split);
     }
     store_impulses(sys);

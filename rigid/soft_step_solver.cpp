@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "rigid/constraint_colouring.hpp"
-#include "rigid/joint_set.hpp"
+#include "rigid/constraint_rows.hpp"
 #include "rigid/rigid_solver.hpp"
 #include "rigid/wide_float.hpp"
 
@@ -174,6 +174,7 @@ private:
     }
     void restitution(Real threshold) { kernels_.restitution(contacts_.data(), contacts_.size(), bodies_.data(), threshold); }
     void store_impulses(RigidSystem& sys) const;
+    BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
     void bodies_to_state(RigidSystem::State& st) const;
     void bodies_from_state(const RigidSystem::State& st);
     // The last sub-step is finished in correct_positions(), after the pipeline's coupling hooks.
@@ -186,7 +187,7 @@ private:
     Kernels kernels_{};
     BatchInputs inputs_;
     std::int32_t pad_ = 0;  // index of the padding body
-    bool pending_ = false, have_joints_ = false;
+    bool pending_ = false;
     Real h_sub_ = 0;
 };
 
@@ -362,23 +363,20 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     bodies_.assign(nb + 1, WideBody{});  // zero motion since the step began; the padding body at rest
     kernels_ = kernels_for(active_simd_kernel());
     prepare(sys, h_sub);
-    // Joints are soft too (Box2D v3: twice the contact stiffness, damping ratio 2); they work on the
-    // system's arrays, synced with the solver's copies around each joint pass when joints exist.
-    JointSet& joints = sys.joints();
-    const bool have_joints = joints.count() > 0;
-    if (have_joints)
-        joints.prepare(sys, h_sub, JointSoftness{true, set.baumgarte, 2 * set.contact_hertz, 2}, set.warm_starting);
-    have_joints_ = have_joints;
+    // Joints and other outside rows are soft too (Box2D v3: twice the contact stiffness, damping ratio 2);
+    // they work on the solver's WideBody rows through a view, as the contacts do.
+    const RowStep step{h_sub, h, n_sub, set.warm_starting, RowSoftness{true, set.baumgarte, 2 * set.contact_hertz, 2}};
+    for (ConstraintRows* rows : sys.row_sources()) rows->prepare(sys, step);
+    const BodyVelocities vel = body_view();
     h_sub_ = h_sub;
     for (int i = 0; i < n_sub; ++i) {
         // Velocities of moving bodies: gravity and forces, through the system (it owns the body data).
         if (i > 0) bodies_to_state(st);
         sys.integrate_velocities(h_sub);
-        if (have_joints) {
-            if (set.warm_starting) joints.warm_start(sys);
-            joints.solve(sys, true);
-        }
         bodies_from_state(st);
+        if (set.warm_starting)
+            for (ConstraintRows* rows : sys.row_sources()) rows->warm_start(sys, vel);
+        for (ConstraintRows* rows : sys.row_sources()) rows->solve(sys, vel, true);
         // Without warm starting each sub-step starts from zero impulses: keeping the last sub-step's
         // accumulated impulse without applying it would let the clamp pull and inflate the friction bound.
         if (set.warm_starting) warm_start();
@@ -408,11 +406,10 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
             b.dth[i] += h_sub_ * w[i];
         }
     }
-    if (have_joints_) {
-        bodies_to_state(st);
-        sys.joints().solve(sys, false);
-        bodies_from_state(st);
-    }
+    // The outside sources move their own bodies over the same sub-step, then relax with the contacts.
+    const BodyVelocities vel = body_view();
+    for (ConstraintRows* rows : sys.row_sources()) rows->positions_advanced(sys, vel, h_sub_);
+    for (ConstraintRows* rows : sys.row_sources()) rows->solve(sys, vel, false);
     solve(Real(1) / h_sub_, sys.settings().contact_push_velocity, false);  // relax: remove the bias velocity
 }
 
