@@ -200,14 +200,20 @@ std::vector<BodyId> staircase(World& w, int n) {
 }
 }  // namespace
 
-TEST_CASE("the staircase tower falls under sequential impulses", "[rigid][staircase]") {
-    World w(settings_for(PositionCorrection::SoftStep));
-    auto ids = staircase(w, 6);
-    for (int i = 0; i < 180; ++i) w.step();
-    CHECK(w.rigid().transform(ids.back()).p.y() < Real(5.5) - Real(0.5));
+TEST_CASE("the staircase tower falls under every sequential-impulse solver", "[rigid][staircase]") {
+    // Its centre of mass lies beyond the base (seed 001 figure 1): the physical answer is a fall.
+    for (PositionCorrection c : {PositionCorrection::SoftStep, PositionCorrection::SplitImpulse, PositionCorrection::Baumgarte}) {
+        CAPTURE(position_correction_name(c));
+        World w(settings_for(c));
+        auto ids = staircase(w, 6);
+        for (int i = 0; i < 180; ++i) w.step();
+        CHECK(w.rigid().transform(ids.back()).p.y() < Real(5.5) - Real(0.5));
+    }
 }
 
-TEST_CASE("known failure: shock propagation with few contact iterations holds the staircase up", "[rigid][staircase][newton]") {
+// [!shouldfail]: Catch reports this test as failed the day it passes, so a fix is noticed and the tag
+// removed. The assertion is the physical answer (the staircase falls).
+TEST_CASE("known failure: shock propagation with few contact iterations holds the staircase up", "[rigid][staircase][newton][!shouldfail]") {
     // Documented in docs/rigid-solvers.md: shock propagation freezes the lower block of each pair, so
     // each block is supported by the one below however the whole stack's weight is distributed.
     WorldSettings ws = settings_for(PositionCorrection::SplitImpulse, RigidSolverKind::Newton);
@@ -216,7 +222,7 @@ TEST_CASE("known failure: shock propagation with few contact iterations holds th
     World w(ws);
     auto ids = staircase(w, 6);
     for (int i = 0; i < 180; ++i) w.step();
-    CHECK(w.rigid().transform(ids.back()).p.y() > Real(5.5) - Real(0.05));
+    CHECK(w.rigid().transform(ids.back()).p.y() < Real(5.5) - Real(0.5));
 }
 
 TEST_CASE("a settled stack falls asleep; a box dropped on it wakes the island and nothing floats", "[rigid][sleeping]") {
