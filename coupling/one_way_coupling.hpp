@@ -1,12 +1,19 @@
 // One-way coupling, rigid -> soft (seed 001 ch.4, O'Brien 2000's one-way case): rigid bodies push soft
 // bodies and carry their attached particles; soft bodies do not push back.
 //
-// Placement in the pipeline (docs/ARCHITECTURE.md): a hook before the soft system's IntegratePositions,
-// which runs after the rigid system's IntegratePositions, so the soft system collides against the rigid
-// bodies' end-of-step poses and attached particles follow where their bodies are now. The layer fills
-// SoftSystem::colliders() with the rigid bodies whose broad-phase boxes overlap a soft body's box, and
-// writes every attachment's frame. The soft system's ParticleContact records keep the impulses a two-way
-// layer would apply back.
+// Placement in the pipeline (docs/ARCHITECTURE.md): the soft system's stages run after the rigid
+// system's of the same name, and the layer hooks three of them, each time predicting where every rigid
+// body will be at the end of the step from its current pose and velocity
+// (RigidSystem::unintegrated_time()):
+//  - before soft IntegrateVelocities: refresh_attachments() writes every attachment's frame (attached
+//    particles follow it; a moving one wakes its body);
+//  - before soft DetectCollisions (after the rigid broad phase has refitted its boxes over the coming
+//    step): refresh_colliders() fills SoftSystem::colliders() with the rigid bodies whose broad-phase
+//    boxes overlap a soft body's reach;
+//  - before soft SolveVelocities (after the rigid solve): update() predicts the same colliders and frames
+//    again from the solved velocities, so soft contacts and attached particles meet the rigid bodies
+//    where IntegratePositions will put them.
+// The soft system's ParticleContact records keep the impulses a two-way layer would apply back.
 #pragma once
 
 #include <cstdint>
@@ -25,15 +32,18 @@ public:
     OneWayCoupling(const OneWayCoupling&) = delete;
     OneWayCoupling& operator=(const OneWayCoupling&) = delete;
 
-    /// Refills the soft system's colliders and attachment frames from the rigid system's current state,
-    /// for a soft step of h.
-    void refresh(Real h);
+    /// Writes every attachment's frame from the rigid system's current state.
+    void refresh_attachments();
+    /// Refills the soft system's colliders from the rigid system's current state, for a soft step of h.
+    void refresh_colliders(Real h);
+    /// Re-predicts the poses and velocities of the colliders refresh_colliders() chose, and the frames.
+    void update();
 
 private:
     Pipeline& pipeline_;
     RigidSystem& rigid_;
     SoftSystem& soft_;
-    int hook_ = 0;
+    int hooks_[3] = {0, 0, 0};
     std::vector<std::uint32_t> mark_;  ///< per rigid slot: step stamp when added as a collider
     std::uint32_t stamp_ = 0;
 };

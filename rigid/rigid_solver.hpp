@@ -24,6 +24,9 @@ public:
     /// Whether the solver integrates velocities and positions itself inside SolveVelocities (sub-stepping
     /// solvers); the system then skips its own integration in the other stages.
     virtual bool integrates_itself() const { return false; }
+    /// After solve_velocities: the time IntegratePositions will still integrate with the current
+    /// velocities (the whole step, or a sub-stepping solver's last sub-step).
+    virtual Real unintegrated_time_after_solve(Real h) const { return h; }
 };
 
 /// Writes each prepared constraint's accumulated impulses back into its manifold's points, where the

@@ -243,6 +243,11 @@ Transform RigidSystem::origin_transform(std::uint32_t s) const {
     return {state_.x[s] - state_.q[s] * local_com_[s], state_.q[s]};
 }
 
+Transform RigidSystem::predicted_transform(std::uint32_t s, Real t) const {
+    const Quat q = integrate_rotation(state_.q[s], state_.w[s], t);
+    return {state_.x[s] + t * state_.v[s] - q * local_com_[s], q};
+}
+
 Transform RigidSystem::transform(BodyId id) const {
     check(id, "transform");
     return origin_transform(id.index);
@@ -380,13 +385,20 @@ bool RigidSystem::all_finite() const {
 void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
     switch (stage) {
         case Stage::IntegrateVelocities:
+            unintegrated_time_ = ctx.h;
             prepare_mass_state();
             solver_->before_integrate_velocities(*this, ctx.h);
             if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
             break;
         case Stage::DetectCollisions: detect_collisions(ctx.h); break;
-        case Stage::SolveVelocities: solver_->solve_velocities(*this, ctx.h); break;
-        case Stage::IntegratePositions: integrate_positions(ctx.h); break;
+        case Stage::SolveVelocities:
+            solver_->solve_velocities(*this, ctx.h);
+            unintegrated_time_ = solver_->unintegrated_time_after_solve(ctx.h);
+            break;
+        case Stage::IntegratePositions:
+            integrate_positions(ctx.h);
+            unintegrated_time_ = 0;
+            break;
         default: break;
     }
 }

@@ -137,6 +137,14 @@ public:
     }
     /// Body origin transform by slot (no check), for coupling layers.
     Transform slot_transform(std::uint32_t slot) const { return origin_transform(slot); }
+    /// Where body `slot` will be after moving t seconds with its current velocities (no check): the
+    /// end-of-step pose a coupling layer predicts with t = unintegrated_time().
+    Transform predicted_transform(std::uint32_t slot, Real t) const;
+    /// Seconds of motion the current step still has to integrate into positions with the current
+    /// velocities: the step h from IntegrateVelocities until the solve, then h for solvers that integrate
+    /// in IntegratePositions and the last sub-step for the soft step (which has integrated the others
+    /// inside SolveVelocities), 0 after IntegratePositions. Coupling layers read it from their hooks.
+    Real unintegrated_time() const { return unintegrated_time_; }
     /// Shape and material by slot (no check), for coupling layers.
     const Shape& slot_shape(std::uint32_t slot) const { return shape_[slot]; }
     const Material& slot_material(std::uint32_t slot) const { return material_[slot]; }
@@ -227,6 +235,7 @@ private:
     std::unique_ptr<RigidSolver> solver_;
     std::unique_ptr<JointSet> joints_;
     std::vector<ConstraintRows*> row_sources_;  ///< joints_ first, then add_rows() order
+    Real unintegrated_time_ = 0;
 };
 
 }  // namespace sinew

@@ -153,6 +153,7 @@ std::atomic<SimdKernel> g_kernel{SimdKernel::Auto};
 class SoftStepSolver final : public RigidSolver {
 public:
     bool integrates_itself() const override { return true; }
+    Real unintegrated_time_after_solve(Real) const override { return h_sub_; }
     void solve_velocities(RigidSystem& sys, Real h) override;
     void correct_positions(RigidSystem& sys, Real h) override;
 

@@ -176,7 +176,7 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
 
 }  // namespace
 
-void step_fast_mass_spring(SoftBody& b, Real h) {
+void predict_fast_mass_spring(SoftBody& b, Real h) {
     if (!(is_finite(h) && h > 0))
         throw SoftError("step_fast_mass_spring: time step h must be finite and > 0, got " + std::to_string(h));
     if (!b.fms_cache) b.fms_cache = std::make_unique<FastMassSpringCache>();
@@ -184,7 +184,7 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
     if (!factorization_is_current(b, c, double(h))) factor(b, c, double(h));
 
     Particles& p = b.p;
-    const std::size_t n = p.size(), m = b.links.size();
+    const std::size_t n = p.size();
 
     // Explicit forces that change with the state (pressure), at x_n.
     const bool pressure = b.def.pressure != 0;
@@ -193,8 +193,7 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
         add_pressure_forces(b, p.x, c.force);
     }
 
-    // y, the first iterate, and the constant part of the right-hand side: M' y / h² + k x_pinned for every
-    // link from a free particle to a pinned one.
+    // y, the first iterate, and the inertial part of the right-hand side, M' y / h².
     const Real keep = Real(1) / (Real(1) + h * b.def.drag);
     const double mass_scale = (1.0 + double(h) * double(b.def.drag)) / (double(h) * double(h));
     for (std::size_t i = 0; i < n; ++i) {
@@ -211,6 +210,14 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
         const double s = double(p.mass[i]) * mass_scale;
         for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(r) + k] = s * double(y[k]);
     }
+}
+
+void solve_fast_mass_spring(SoftBody& b, Real h) {
+    FastMassSpringCache& c = *b.fms_cache;  // made by predict_fast_mass_spring
+    Particles& p = b.p;
+    const std::size_t n = p.size(), m = b.links.size();
+    // The pinned ends' share of the right-hand side, here rather than in the prediction: attached
+    // particles are placed on their rigid points again just before this stage.
     for (const Link& l : b.links) {
         const int ra = c.row[l.a], rb = c.row[l.b];
         if (ra >= 0 && rb < 0)
@@ -218,7 +225,6 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
         if (rb >= 0 && ra < 0)
             for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(rb) + k] += double(l.stiffness) * double(p.x[l.a][k]);
     }
-
     const int iterations = c.inv_d.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
@@ -256,6 +262,11 @@ void step_fast_mass_spring(SoftBody& b, Real h) {
     const Real inv_h = Real(1) / h;
     for (std::size_t i = 0; i < n; ++i)
         if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
+}
+
+void step_fast_mass_spring(SoftBody& b, Real h) {
+    predict_fast_mass_spring(b, h);
+    solve_fast_mass_spring(b, h);
 }
 
 }  // namespace sinew

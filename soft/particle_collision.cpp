@@ -1,6 +1,7 @@
 // One-way particle contacts: projection of positions (Jakobsen 2003), then a velocity pass for
 // restitution and Coulomb friction, recorded as ParticleContact for coupling layers.
 #include "soft/particle_collision.hpp"
+#include "soft/soft_methods.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -95,7 +96,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle
             // back in each sweep must not look like an impact).
             const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
-            const bool position_friction = b.def.method == SoftMethod::Verlet;  // done in project_positions
+            const bool position_friction = soft_method_stages(b.def.method).position_friction;  // project_positions
             if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
             Vec3 dv = Vec3::Zero();
             const Real removed = std::max(Real(0), -vn);  // approach this pass removes

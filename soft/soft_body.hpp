@@ -131,6 +131,7 @@ struct SoftBody {
     Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
+    bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)
     Real sleep_timer = 0;
     std::unique_ptr<ImplicitEulerCache> implicit_cache;
     std::unique_ptr<FastMassSpringCache> fms_cache;

@@ -38,6 +38,18 @@ void step_fast_mass_spring(SoftBody& b, Real h);
 /// followed by collision projection (if `collision` is not null) and long-range attachments.
 void step_verlet(SoftBody& b, Real h, ParticleCollision* collision);
 
+// The two position-based methods in two parts, for the soft system's stages (step_* = both in order):
+// the prediction from forces and gravity (IntegrateVelocities) and the internal constraints solved on
+// the predicted positions, velocities read back from them (SolveVelocities).
+/// Verlet's inertial prediction x_n + (1 - h drag) h v_n + h^2 a_n (pressure included), x_prev = x_n.
+void predict_verlet(SoftBody& b, Real h);
+/// Verlet's relaxation (links, collision projection, long-range attachments) and v = (x - x_prev) / h.
+void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision);
+/// Liu 2013's inertial term y (and its factorisation if stale) and the first iterate, x_prev = x_n.
+void predict_fast_mass_spring(SoftBody& b, Real h);
+/// Liu 2013's local/global iterations from the predicted positions, and v = (x - x_prev) / h.
+void solve_fast_mass_spring(SoftBody& b, Real h);
+
 /// Projects particles onto their long-range attachment spheres (unilateral) and removes the outward
 /// velocity component of those it moved.
 void apply_long_range_attachments(SoftBody& b);

@@ -8,6 +8,7 @@
 #include "engine/core/format.hpp"
 #include "soft/soft_body_validate.hpp"
 #include "soft/soft_integrators.hpp"
+#include "soft/soft_methods.hpp"
 #include "soft/solver_caches.hpp"
 
 namespace sinew {
@@ -236,7 +237,13 @@ Aabb SoftSystem::bounds(std::uint32_t slot) const {
 // ---- stepping -----------------------------------------------------------------------------------------
 
 void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
-    if (stage == Stage::IntegratePositions) integrate_positions(ctx.h);
+    switch (stage) {
+        case Stage::IntegrateVelocities: integrate_velocities(ctx.h); break;
+        case Stage::DetectCollisions: detect_collisions(ctx.h); break;
+        case Stage::SolveVelocities: solve_velocities(ctx.h); break;
+        case Stage::IntegratePositions: integrate_positions(ctx.h); break;
+        default: break;
+    }
 }
 
 namespace {
@@ -275,33 +282,79 @@ bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& co
 
 }  // namespace
 
-void SoftSystem::integrate_positions(Real h) {
+void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
+    if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!alive_[s]) continue;
         SoftBody& b = bodies_[s];
+        b.stepping = false;
         b.gravity = settings_.gravity * b.def.gravity_scale;
         const bool attachments_moved = follow_attachments(b, h, settings_.sleep_velocity);
         if (!b.awake) {
-            if (!attachments_moved && !touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity))
-                continue;
-            b.awake = true;
+            if (!attachments_moved) continue;  // may still be woken by a collider (detect_collisions)
             b.sleep_timer = 0;
         }
-        collision_.begin(b, colliders_, h);
-        ParticleCollision* collision = collision_.empty() ? nullptr : &collision_;
-        switch (b.def.method) {
-            case SoftMethod::Verlet: step_verlet(b, h, collision); break;
-            case SoftMethod::ExplicitEuler: step_explicit_euler(b, h); break;
-            case SoftMethod::SemiImplicitEuler: step_semi_implicit_euler(b, h); break;
-            case SoftMethod::ImplicitEuler: step_implicit_euler(b, h); break;
-            case SoftMethod::FastMassSpring: step_fast_mass_spring(b, h); break;
-            default: break;
+        begin_step(b, h);
+    }
+}
+
+void SoftSystem::begin_step(SoftBody& b, Real h) {
+    b.awake = true;
+    b.stepping = true;
+    Particles& p = b.p;
+    p.x_next.resize(p.size());  // no-op after the first step
+    p.v_solved.resize(p.size());
+    soft_method_stages(b.def.method).integrate_velocities(b, h);
+    // The method wrote its prediction over x (x_prev = x_n): set it aside, positions stay x_n.
+    p.x_next.swap(p.x);
+    p.x = p.x_prev;
+}
+
+void SoftSystem::detect_collisions(Real h) {
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!alive_[s]) continue;
+        SoftBody& b = bodies_[s];
+        if (!b.stepping) {
+            // Asleep: woken by a collider that moves near it. The colliders are refreshed just before
+            // this stage, so the forces of this step are taken now.
+            if (!touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity)) continue;
+            b.sleep_timer = 0;
+            begin_step(b, h);
         }
-        if (b.def.method != SoftMethod::Verlet && !b.lra.empty()) apply_long_range_attachments(b);
+        collision_[s].begin(b, colliders_, h);
+    }
+}
+
+void SoftSystem::solve_velocities(Real h) {
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!alive_[s] || !bodies_[s].stepping) continue;
+        SoftBody& b = bodies_[s];
+        Particles& p = b.p;
+        p.x.swap(p.x_next);  // work on the predicted positions
+        // Attached particles onto their targets again: a coupling layer may have refined the frames.
+        follow_attachments(b, h, settings_.sleep_velocity);
+        ParticleCollision* collision = collision_[s].empty() ? nullptr : &collision_[s];
+        soft_method_stages(b.def.method).solve_constraints(b, h, collision);
         restore_attachment_velocities(b);
-        if (collision) collision_.finish(b, s, h, contacts_);
-        for (Vec3& f : b.p.f) f.setZero();
+        if (collision) collision->finish(b, s, h, contacts_);
+        p.v_solved = p.v;
+        p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
+    }
+}
+
+void SoftSystem::integrate_positions(Real h) {
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!alive_[s] || !bodies_[s].stepping) continue;
+        SoftBody& b = bodies_[s];
+        Particles& p = b.p;
+        // A velocity change made after the solve (a coupling layer's impulse) moves this step's positions,
+        // as it would have had it been part of the solve.
+        for (std::size_t i = 0; i < p.size(); ++i)
+            if (p.inv_mass[i] != 0) p.x_next[i] += h * (p.v[i] - p.v_solved[i]);
+        p.x.swap(p.x_next);
+        for (Vec3& f : p.f) f.setZero();
+        b.stepping = false;
         update_sleep(b, h);
     }
 }

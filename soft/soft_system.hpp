@@ -1,12 +1,17 @@
 // The soft-body system: soft bodies in slots with generational handles, run as pipeline stages.
 //
-// Stages (one-way coupling: rigid bodies move soft ones, docs/ARCHITECTURE.md):
-//  - IntegrateVelocities, DetectCollisions, SolveVelocities: nothing yet (two-way layers will put soft
-//    contacts there);
-//  - IntegratePositions (after the rigid system's, so colliders hold end-of-step poses): attached
-//    particles follow their rigid points, sleeping bodies wake if something near them moves, each awake
-//    body is advanced by its method, projected out of the colliders with friction and restitution, and
-//    its contacts recorded; then sleeping.
+// Stages (docs/ARCHITECTURE.md; each method's part is its row in soft/soft_methods.hpp):
+//  - IntegrateVelocities: attached particles follow their targets, sleeping bodies wake if something near
+//    them moves, and each awake body takes its forces and gravity: its predicted end-of-step positions
+//    are set aside (Particles::x_next), its positions stay x_n;
+//  - DetectCollisions: each awake body picks the colliders its particles may reach this step;
+//  - SolveVelocities: on the predicted positions, the internal constraints (links, Liu's iterations,
+//    long-range attachments) and the contacts (projection, restitution, friction), recorded as
+//    ParticleContact with their impulses; the velocities are final here, the positions still x_n;
+//  - IntegratePositions: positions take the predicted ones, moved further by h times any velocity change
+//    a coupling layer made after the solve; forces cleared; sleeping.
+// Colliders and attachment frames are written by a coupling layer before IntegrateVelocities and may be
+// refined (same colliders, end-of-step poses) before SolveVelocities.
 #pragma once
 
 #include <vector>
@@ -73,7 +78,8 @@ public:
     /// Is particle `i` attached to an outside body? Throws SoftError for a bad id or index.
     bool attached(SoftBodyId id, std::uint32_t i) const;
 
-    /// The colliders of this step. A coupling layer (or a test) refills it before IntegratePositions. Their
+    /// The colliders of this step. A coupling layer (or a test) fills it before IntegrateVelocities and may
+    /// update their poses and velocities (not their number or order) before SolveVelocities. Their
     /// shape pointers are valid during the step only (they point into the rigid system, whose arrays may
     /// move when bodies are created between steps): read colliders from hooks, not between steps.
     std::vector<Collider>& colliders() { return colliders_; }
@@ -89,6 +95,11 @@ public:
 
 private:
     void check(SoftBodyId id, const char* where) const;
+    void integrate_velocities(Real h);
+    /// The IntegrateVelocities part of one body (it is awake and advances this step).
+    void begin_step(SoftBody& b, Real h);
+    void detect_collisions(Real h);
+    void solve_velocities(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
 
@@ -100,7 +111,7 @@ private:
     std::size_t alive_count_ = 0;
     std::vector<Collider> colliders_;
     std::vector<ParticleContact> contacts_;
-    ParticleCollision collision_;
+    std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
 };
 
 }  // namespace sinew

@@ -62,7 +62,7 @@ void relax_links(SoftBody& b, int iteration) {
 
 }  // namespace
 
-void step_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
+void predict_verlet(SoftBody& b, Real h) {
     if (!(is_finite(h) && h > 0)) throw SoftError("step_verlet: time step h must be finite and > 0, got " + std::to_string(h));
     Particles& p = b.p;
     const std::size_t n = p.size();
@@ -79,7 +79,11 @@ void step_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
         if (w == 0) continue;  // pinned, or attached (the system already placed it)
         p.x[i] += (keep * h) * p.v[i] + h2 * (b.gravity + w * p.f[i]);
     }
+}
 
+void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
+    Particles& p = b.p;
+    const std::size_t n = p.size();
     // Relaxation: links, then collisions, then long-range attachments, every sweep (Jakobsen: satisfying
     // the constraints one after another and repeating converges to satisfying all of them; the collision
     // projection inside the loop keeps links from pulling particles back into the colliders).
@@ -94,6 +98,11 @@ void step_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
     const Real inv_h = Real(1) / h;
     for (std::size_t i = 0; i < n; ++i)
         p.v[i] = p.inv_mass[i] == 0 ? Vec3::Zero() : Vec3((p.x[i] - p.x_prev[i]) * inv_h);
+}
+
+void step_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
+    predict_verlet(b, h);
+    relax_verlet(b, h, collision);
 }
 
 }  // namespace sinew
