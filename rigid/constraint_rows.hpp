@@ -88,6 +88,10 @@ struct RowSoftness {
     /// position projection after the step, where a source offers one); true: Catto 2011 soft rows of
     /// `hertz` and `damping_ratio` in the biased passes (the sub-stepping soft step).
     bool soft = false;
+    /// Not soft: the solver's velocity passes carry no position bias and the source may project the error
+    /// out after the step instead (split impulses with warm starting: the joints' analogue of split
+    /// impulses). Otherwise the Baumgarte bias acts in the velocity passes.
+    bool projection = false;
     Real baumgarte = Real(0.2);
     Real hertz = 60;          ///< soft: stiffness (Hz)
     Real damping_ratio = 2;   ///< soft

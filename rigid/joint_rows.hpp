@@ -22,6 +22,7 @@
 #include "rigid/constraint_rows.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_system.hpp"
+#include "rigid/soft_constraint.hpp"
 
 namespace sinew::joint_detail {
 
@@ -38,18 +39,11 @@ struct Softness {
     }
 };
 
-/// Catto 2011 soft constraint of natural frequency `hertz` and damping ratio `zeta` over a step h:
-/// with omega = 2 pi f, bias_rate = omega / (2 zeta + h omega), mass_scale = h omega (2 zeta + h omega) /
-/// (1 + h omega (2 zeta + h omega)), impulse_scale = 1 / (1 + ...). This is THEORY.md §2's gamma / beta
-/// form rewritten per unit effective mass (beta/h = bias_rate, m_soft / m = mass_scale, gamma m_soft =
-/// impulse_scale): implicit Euler of a damped spring, unconditionally stable.
+/// Catto 2011 soft constraint of natural frequency `hertz` and damping ratio `zeta` over a step h
+/// (rigid/soft_constraint.hpp), with no cap on the error.
 inline Softness make_soft(Real hertz, Real zeta, Real h) {
-    if (!(hertz > 0)) return {};
-    const Real omega = 2 * kPi * hertz;
-    const Real a1 = 2 * zeta + h * omega;
-    const Real a2 = h * omega * a1;
-    const Real a3 = 1 / (1 + a2);
-    return {omega / a1, a2 * a3, a3};
+    const SoftCoefficients c = soft_coefficients(hertz, zeta, h);
+    return {c.bias_rate, c.mass_scale, c.impulse_scale};
 }
 
 /// Accumulated impulses of a joint's rows over the current (sub-)step (N s, or N m s for angular rows).

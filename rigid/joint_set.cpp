@@ -338,14 +338,12 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     //   energy. The projection corrects the whole error (capped at kMaxProjection per sweep, as Box2D
     //   v2 caps its position correction): it moves no velocity, so there is nothing to under-relax, and
     //   a fraction beta = 0.2 leaves the slow stretch mode of a long chain at millimetres for seconds.
-    // - Baumgarte (PositionCorrection::Baumgarte, warm starting off, and the Newton solver, which does
+    // - Baumgarte (RigidSolverKind::Baumgarte, warm starting off, and the Newton solver, which does
     //   not warm start): the bias -(beta/h) C in the biased velocity passes. Without warm starting the
     //   velocity iterations cannot carry a long chain's load, and only the bias holds it up.
-    const RigidSettings& set = sys.settings();
     if (softness.soft)
         m.correction = Impl::Correction::Soft;
-    else if (warm && set.solver == RigidSolverKind::SequentialImpulse &&
-             set.correction == PositionCorrection::SplitImpulse)
+    else if (softness.projection)
         m.correction = Impl::Correction::Projection;
     else
         m.correction = Impl::Correction::Baumgarte;

@@ -5,27 +5,27 @@
 
 namespace sinew {
 
+/// The rigid solver. The first three are sequential impulses (Catto 2005: accumulated clamped impulses,
+/// warm starting) that differ in how they remove penetration and how they step; the last is another
+/// method altogether.
 enum class RigidSolverKind : std::uint8_t {
-    SequentialImpulse,  ///< Catto 2005/2011: accumulated clamped impulses, warm starting
-    Newton              ///< Guendelman et al. 2003: collision / velocity / contact / position order
-};
-
-/// How the sequential-impulse solver removes penetration.
-enum class PositionCorrection : std::uint8_t {
-    Baumgarte,     ///< bias velocity -(beta/h) max(d - slop, 0) in the velocity solve (adds energy)
-    SplitImpulse,  ///< the same bias on separate pseudo-velocities that move positions only (adds none)
     SoftStep,      ///< Box2D v3 "soft step": sub-steps, soft contacts (Catto 2011), relax pass, no slop
+    SplitImpulse,  ///< penetration bias -(beta/h) max(d - slop, 0) on pseudo-velocities that move positions only
+    Baumgarte,     ///< the same bias in the velocity solve itself (adds energy)
+    Newton,        ///< Guendelman et al. 2003: collision / velocity / contact / position order, shock propagation
+    Count
 };
 
-const char* solver_kind_name(RigidSolverKind k);
-const char* position_correction_name(PositionCorrection c);
+/// "soft_step", "split_impulse", "baumgarte", "newton" (scene files, the C API's names, the bench).
+const char* rigid_solver_name(RigidSolverKind k);
+/// The kind of a name from rigid_solver_name(); false if unknown.
+bool parse_rigid_solver(const char* name, RigidSolverKind& out);
 
 struct RigidSettings {
     Vec3 gravity = Vec3(0, Real(-9.81), 0);  ///< m/s^2
-    RigidSolverKind solver = RigidSolverKind::SequentialImpulse;
-    int velocity_iterations = 10;
     /// Soft step stands best per unit of time in `sinew bench rigid` (docs/RESULTS.md), so it is the default.
-    PositionCorrection correction = PositionCorrection::SoftStep;
+    RigidSolverKind solver = RigidSolverKind::SoftStep;
+    int velocity_iterations = 10;
     bool warm_starting = true;
     /// Soft step only: sub-steps per step; each does one biased solve and one relax pass, so it costs
     /// about two iterations of the other methods. 0 = velocity_iterations / 2 (at least 1), so that

@@ -1,6 +1,7 @@
 #include "rigid/rigid_system.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "engine/core/mass_properties.hpp"
 #include "rigid/joint_set.hpp"
@@ -26,17 +27,23 @@ const char* body_type_name(BodyType t) {
     return "unknown";
 }
 
-const char* solver_kind_name(RigidSolverKind k) {
-    return k == RigidSolverKind::Newton ? "newton" : "sequential_impulse";
+const char* rigid_solver_name(RigidSolverKind k) {
+    switch (k) {
+        case RigidSolverKind::SoftStep: return "soft_step";
+        case RigidSolverKind::SplitImpulse: return "split_impulse";
+        case RigidSolverKind::Baumgarte: return "baumgarte";
+        case RigidSolverKind::Newton: return "newton";
+        default: return "unknown";
+    }
 }
 
-const char* position_correction_name(PositionCorrection c) {
-    switch (c) {
-        case PositionCorrection::Baumgarte: return "baumgarte";
-        case PositionCorrection::SplitImpulse: return "split_impulse";
-        case PositionCorrection::SoftStep: return "soft_step";
-    }
-    return "unknown";
+bool parse_rigid_solver(const char* name, RigidSolverKind& out) {
+    for (int k = 0; k < int(RigidSolverKind::Count); ++k)
+        if (std::strcmp(name, rigid_solver_name(RigidSolverKind(k))) == 0) {
+            out = RigidSolverKind(k);
+            return true;
+        }
+    return false;
 }
 
 RigidSystem::RigidSystem(const RigidSettings& settings) : joints_(std::make_unique<JointSet>()) {
@@ -75,15 +82,16 @@ void RigidSystem::set_settings(const RigidSettings& s) {
         bad("contact_damping_ratio", "must be finite and >= 0");
     if (!(s.contact_push_velocity > 0) || !is_finite(s.contact_push_velocity))
         bad("contact_push_velocity", "must be finite and > 0");
-    // The solver object follows the method; impulses cached by one are not meaningful to another.
-    auto method = [](const RigidSettings& x) {
-        if (x.solver == RigidSolverKind::Newton) return 0;
-        return x.correction == PositionCorrection::SoftStep ? 1 : 2;
-    };
-    if (!solver_ || method(s) != method(settings_)) {
-        if (s.solver == RigidSolverKind::Newton) solver_ = make_newton_impulse_solver();
-        else if (s.correction == PositionCorrection::SoftStep) solver_ = make_soft_step_solver();
-        else solver_ = make_sequential_impulse_solver();
+    if (!(s.solver < RigidSolverKind::Count)) bad("solver", "is not a RigidSolverKind (" + std::to_string(int(s.solver)) + ")");
+    // The solver object follows the method (split impulses and Baumgarte share one); impulses cached by one
+    // are not meaningful to another.
+    auto method = [](RigidSolverKind k) { return k == RigidSolverKind::Baumgarte ? RigidSolverKind::SplitImpulse : k; };
+    if (!solver_ || method(s.solver) != method(settings_.solver)) {
+        switch (s.solver) {
+            case RigidSolverKind::Newton: solver_ = make_newton_impulse_solver(); break;
+            case RigidSolverKind::SoftStep: solver_ = make_soft_step_solver(); break;
+            default: solver_ = make_sequential_impulse_solver(); break;
+        }
         for (ContactManifold& c : contacts_)
             for (int k = 0; k < c.manifold.count; ++k) {
                 c.manifold.points[k].normal_impulse = 0;

@@ -79,7 +79,7 @@ void SequentialImpulseSolver::prepare(RigidSystem& sys, Real h) {
     }
     const auto& contacts = sys.contacts();
     constraints_.resize(contacts.size());
-    const bool split = set.correction == PositionCorrection::SplitImpulse;
+    const bool split = set.solver == RigidSolverKind::SplitImpulse;
     const Real inv_h = 1 / h;
     for (std::size_t ci = 0; ci < contacts.size(); ++ci) {
         const ContactManifold& cm = contacts[ci];
@@ -226,7 +226,9 @@ void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     const RigidSettings& set = sys.settings();
     prepare(sys, h);
     // Joints and other outside rows (rigid/constraint_rows.hpp) work on the solver's own bodies.
-    const RowStep step{h, h, 1, set.warm_starting, RowSoftness{false, set.baumgarte, 0, 0}};
+    const bool split = set.solver == RigidSolverKind::SplitImpulse;
+    // With split impulses and warm starting the joints project their error after the step (no bias here).
+    const RowStep step{h, h, 1, set.warm_starting, RowSoftness{false, split && set.warm_starting, set.baumgarte, 0, 0}};
     const std::vector<ConstraintRows*>& sources = sys.row_sources();
     for (ConstraintRows* rows : sources) rows->prepare(sys, step);
     const BodyVelocities vel = BodyVelocities::of(bodies_, &SolverBody::v, &SolverBody::w);
@@ -234,7 +236,6 @@ void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
         warm_start();
         for (ConstraintRows* rows : sources) rows->warm_start(sys, vel);
     }
-    const bool split = set.correction == PositionCorrection::SplitImpulse;
     for (int it = 0; it < set.velocity_iterations; ++it) {
         for (ConstraintRows* rows : sources) rows->solve(sys, vel, true);  // outside rows first (Box2D's order)
         solve_iteration(split);

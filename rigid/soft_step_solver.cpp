@@ -23,25 +23,14 @@
 #include "rigid/constraint_colouring.hpp"
 #include "rigid/constraint_rows.hpp"
 #include "rigid/rigid_solver.hpp"
+#include "rigid/soft_constraint.hpp"
 #include "rigid/wide_float.hpp"
 
 namespace sinew {
 
 namespace {
 
-struct Softness {
-    Real bias_rate = 0, mass_scale = 1, impulse_scale = 0;
-};
-
-/// Catto 2011 soft constraint for frequency `hertz`, damping ratio `zeta`, step h.
-Softness make_softness(Real hertz, Real zeta, Real h) {
-    if (hertz <= 0) return {};
-    Real omega = 2 * kPi * hertz;
-    Real a1 = 2 * zeta + h * omega;
-    Real a2 = h * omega * a1;
-    Real a3 = 1 / (1 + a2);
-    return {omega / a1, a2 * a3, a3};
-}
+using Softness = SoftCoefficients;  // rigid/soft_constraint.hpp
 
 /// Point slot k of a batch's manifolds, one per lane. Lanes whose manifold has fewer points keep zero
 /// masses and impulses, so they compute nothing.
@@ -301,8 +290,8 @@ void SoftStepSolver::prepare(RigidSystem& sys, Real h_sub) {
     const RigidSettings& set = sys.settings();
     // Contact stiffness is capped at a quarter of the sub-step rate (Box2D v3).
     const Real hertz = std::min(set.contact_hertz, Real(0.25) / h_sub);
-    const Softness soft = make_softness(hertz, set.contact_damping_ratio, h_sub);
-    const Softness static_soft = make_softness(2 * hertz, set.contact_damping_ratio, h_sub);
+    const Softness soft = soft_coefficients(hertz, set.contact_damping_ratio, h_sub);
+    const Softness static_soft = soft_coefficients(2 * hertz, set.contact_damping_ratio, h_sub);
     colour(sys);
     std::size_t batches = by_colour_[ConstraintColouring::kOverflow].size();
     for (int c = 0; c < ConstraintColouring::kColours; ++c)
@@ -366,7 +355,7 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     prepare(sys, h_sub);
     // Joints and other outside rows are soft too (Box2D v3: twice the contact stiffness, damping ratio 2);
     // they work on the solver's WideBody rows through a view, as the contacts do.
-    const RowStep step{h_sub, h, n_sub, set.warm_starting, RowSoftness{true, set.baumgarte, 2 * set.contact_hertz, 2}};
+    const RowStep step{h_sub, h, n_sub, set.warm_starting, RowSoftness{true, false, set.baumgarte, 2 * set.contact_hertz, 2}};
     for (ConstraintRows* rows : sys.row_sources()) rows->prepare(sys, step);
     const BodyVelocities vel = body_view();
     h_sub_ = h_sub;

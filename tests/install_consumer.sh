@@ -10,5 +10,7 @@ cmake -S "$source_dir/demos/cmake-consumer" -B "$prefix/build" -G Ninja -DCMAKE_
 cmake --build "$prefix/build" >/dev/null
 "$prefix/build/consumer_cpp"
 LD_LIBRARY_PATH="$prefix/usr/lib:$prefix/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}" "$prefix/build/consumer_c"
+# Headers internal to a layer (CMakeLists.txt SINEW_INTERNAL_HEADERS) are not installed.
+test ! -e "$prefix/usr/include/sinew/rigid/joint_rows.hpp" && test ! -e "$prefix/usr/include/sinew/soft/solver_caches.hpp"
 test -f "$prefix/usr/lib/pkgconfig/sinew.pc" || test -f "$prefix/usr/lib/x86_64-linux-gnu/pkgconfig/sinew.pc"
 echo "install: find_package(sinew) consumer built and ran"

@@ -22,20 +22,16 @@ namespace {
 struct SolverCase {
     const char* name;
     RigidSolverKind kind;
-    PositionCorrection correction;
 };
-const SolverCase kSplit{"sequential impulse, split impulses", RigidSolverKind::SequentialImpulse,
-                        PositionCorrection::SplitImpulse};
-const SolverCase kSoftStep{"sequential impulse, soft step", RigidSolverKind::SequentialImpulse,
-                           PositionCorrection::SoftStep};
-const SolverCase kNewton{"newton impulses", RigidSolverKind::Newton, PositionCorrection::SplitImpulse};
+const SolverCase kSplit{"sequential impulse, split impulses", RigidSolverKind::SplitImpulse};
+const SolverCase kSoftStep{"sequential impulse, soft step", RigidSolverKind::SoftStep};
+const SolverCase kNewton{"newton impulses", RigidSolverKind::Newton};
 const SolverCase kAll[] = {kSplit, kSoftStep, kNewton};
 
 WorldSettings settings_for(const SolverCase& c, Real h, const Vec3& gravity) {
     WorldSettings ws;
     ws.time_step = h;
     ws.rigid.solver = c.kind;
-    ws.rigid.correction = c.correction;
     ws.rigid.gravity = gravity;
     ws.rigid.sleeping = false;  // the tests watch bodies that come to rest
     return ws;

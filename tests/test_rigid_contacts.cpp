@@ -13,9 +13,8 @@ namespace {
 
 const Real kG = Real(9.81);
 
-WorldSettings settings_for(PositionCorrection c, RigidSolverKind k = RigidSolverKind::SequentialImpulse) {
+WorldSettings settings_for(RigidSolverKind k) {
     WorldSettings ws;
-    ws.rigid.correction = c;
     ws.rigid.solver = k;
     ws.rigid.sleeping = false;
     return ws;
@@ -60,8 +59,8 @@ Real displacement_along_slope(World& w, BodyId id, Real theta) {
 }  // namespace
 
 TEST_CASE("a box on a slope stays below atan(mu) and slides above it at g(sin - mu cos)", "[rigid][friction]") {
-    auto c = GENERATE(PositionCorrection::SoftStep, PositionCorrection::SplitImpulse);
-    CAPTURE(position_correction_name(c));
+    auto c = GENERATE(RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse);
+    CAPTURE(rigid_solver_name(c));
     const Real mu = Real(0.4);  // atan(0.4) = 21.8 degrees
     SECTION("sticks at 18 degrees") {
         const Real theta = Real(18) * kPi / 180;
@@ -91,8 +90,8 @@ TEST_CASE("a box on a slope stays below atan(mu) and slides above it at g(sin - 
 TEST_CASE("a ball dropped on the ground rebounds to e^2 of its height", "[rigid][restitution]") {
     // h = 1/240 s: the impact is resolved within one step, at most v h = 1.8 cm from the surface for a
     // 1 m drop, which bounds the height error by (1 - e^2) v h / (e^2 H) < 1% for e = 0.8.
-    auto c = GENERATE(PositionCorrection::SoftStep, PositionCorrection::SplitImpulse);
-    CAPTURE(position_correction_name(c));
+    auto c = GENERATE(RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse);
+    CAPTURE(rigid_solver_name(c));
     WorldSettings ws = settings_for(c);
     ws.time_step = Real(1) / 240;
     ws.rigid.velocity_iterations = 10;
@@ -119,7 +118,7 @@ TEST_CASE("a ball dropped on the ground rebounds to e^2 of its height", "[rigid]
 }
 
 TEST_CASE("resting bodies do not bounce", "[rigid][restitution]") {
-    World w(settings_for(PositionCorrection::SoftStep));
+    World w(settings_for(RigidSolverKind::SoftStep));
     add_ground(w, Real(0.5), 1);
     BodyDef box;
     box.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
@@ -137,7 +136,7 @@ TEST_CASE("resting bodies do not bounce", "[rigid][restitution]") {
 }
 
 TEST_CASE("Newton's cradle: the Newtonian solver passes momentum through the row", "[rigid][newton]") {
-    WorldSettings ws = settings_for(PositionCorrection::SplitImpulse, RigidSolverKind::Newton);
+    WorldSettings ws = settings_for(RigidSolverKind::Newton);
     ws.rigid.gravity = Vec3::Zero();
     World w(ws);
     const Real r = Real(0.5);
@@ -171,7 +170,7 @@ TEST_CASE("Newton's cradle: the Newtonian solver passes momentum through the row
 TEST_CASE("Guendelman's order keeps an e = 1 block still on a steep high-friction slope", "[rigid][newton]") {
     // Guendelman et al. 2003 (section 5): with collisions resolved before the velocity update and contacts
     // with restitution rising to 0, a perfectly elastic block rests on a slope instead of bouncing down.
-    WorldSettings ws = settings_for(PositionCorrection::SplitImpulse, RigidSolverKind::Newton);
+    WorldSettings ws = settings_for(RigidSolverKind::Newton);
     World w(ws);
     const Real theta = Real(35) * kPi / 180;
     BodyId box = box_on_slope(w, theta, Real(1.0));
@@ -202,8 +201,8 @@ std::vector<BodyId> staircase(World& w, int n) {
 
 TEST_CASE("the staircase tower falls under every sequential-impulse solver", "[rigid][staircase]") {
     // Its centre of mass lies beyond the base (seed 001 figure 1): the physical answer is a fall.
-    for (PositionCorrection c : {PositionCorrection::SoftStep, PositionCorrection::SplitImpulse, PositionCorrection::Baumgarte}) {
-        CAPTURE(position_correction_name(c));
+    for (RigidSolverKind c : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte}) {
+        CAPTURE(rigid_solver_name(c));
         World w(settings_for(c));
         auto ids = staircase(w, 6);
         for (int i = 0; i < 180; ++i) w.step();
@@ -216,7 +215,7 @@ TEST_CASE("the staircase tower falls under every sequential-impulse solver", "[r
 TEST_CASE("known failure: shock propagation with few contact iterations holds the staircase up", "[rigid][staircase][newton][!shouldfail]") {
     // Documented in docs/rigid-solvers.md: shock propagation freezes the lower block of each pair, so
     // each block is supported by the one below however the whole stack's weight is distributed.
-    WorldSettings ws = settings_for(PositionCorrection::SplitImpulse, RigidSolverKind::Newton);
+    WorldSettings ws = settings_for(RigidSolverKind::Newton);
     ws.rigid.newton_contact_iterations = 1;
     ws.rigid.newton_shock_propagation = true;
     World w(ws);
@@ -265,7 +264,7 @@ TEST_CASE("a fast box gets its speculative contact before it lands: no sinking i
     // gap is still open (the box swept over the coming step against the ground's fat box), so every solver
     // stops it at the surface: penetration stays within the solvers' slop (5 mm), where it sank 3 cm when
     // the broad phase tested the current box only.
-    for (PositionCorrection c : {PositionCorrection::SplitImpulse, PositionCorrection::Baumgarte, PositionCorrection::SoftStep}) {
+    for (RigidSolverKind c : {RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte, RigidSolverKind::SoftStep}) {
         DYNAMIC_SECTION("position correction " << int(c)) {
             World w(settings_for(c));
             add_ground(w);

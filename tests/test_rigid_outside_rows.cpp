@@ -97,30 +97,21 @@ struct Setup {
     }
 };
 
-RigidSettings settings_for(RigidSolverKind kind, PositionCorrection c) {
+RigidSettings settings_for(RigidSolverKind kind) {
     RigidSettings s;
     s.gravity = Vec3::Zero();
     s.sleeping = false;
     s.solver = kind;
-    s.correction = c;
     return s;
 }
 
 }  // namespace
 
 TEST_CASE("an outside row stops a particle on a rigid box in every solver, conserving momentum", "[rigid][rows]") {
-    struct Case {
-        const char* name;
-        RigidSolverKind kind;
-        PositionCorrection correction;
-    };
-    const Case cases[] = {{"soft step", RigidSolverKind::SequentialImpulse, PositionCorrection::SoftStep},
-                          {"split impulses", RigidSolverKind::SequentialImpulse, PositionCorrection::SplitImpulse},
-                          {"Baumgarte", RigidSolverKind::SequentialImpulse, PositionCorrection::Baumgarte},
-                          {"Newtonian impulses", RigidSolverKind::Newton, PositionCorrection::SplitImpulse}};
-    for (const Case& c : cases) {
-        SECTION(c.name) {
-            Setup s(settings_for(c.kind, c.correction));
+    for (RigidSolverKind kind : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,
+                                 RigidSolverKind::Newton}) {
+        SECTION(rigid_solver_name(kind)) {
+            Setup s(settings_for(kind));
             const Real m = 1, M = 4, u = 3;
             // Central impact: the particle touches the +x face at its centre, moving in -x.
             s.rows.particles.push_back({Vec3(Real(0.5), 0, 0), Vec3(-u, 0, 0), m, s.box.index, Vec3::UnitX()});
@@ -140,9 +131,7 @@ TEST_CASE("an outside row stops a particle on a rigid box in every solver, conse
             CHECK(s.rows.prepares == 1);
             CHECK(s.rows.finishes == 1);
             CHECK(s.rows.passes >= s.rigid.settings().velocity_iterations);
-            const int moves = c.correction == PositionCorrection::SoftStep && c.kind == RigidSolverKind::SequentialImpulse
-                                  ? s.rigid.settings().effective_substeps()
-                                  : 1;
+            const int moves = kind == RigidSolverKind::SoftStep ? s.rigid.settings().effective_substeps() : 1;
             CHECK(s.rows.advances == moves);
             CHECK(s.rows.particles[0].x.x() == Approx(Real(0.5) + h * v_after).epsilon(1e-4));
         }
@@ -150,8 +139,8 @@ TEST_CASE("an outside row stops a particle on a rigid box in every solver, conse
 }
 
 TEST_CASE("outside rows off-centre: linear and angular momentum are conserved, the contact point stops", "[rigid][rows]") {
-    for (PositionCorrection c : {PositionCorrection::SoftStep, PositionCorrection::SplitImpulse, PositionCorrection::Baumgarte}) {
-        Setup s(settings_for(RigidSolverKind::SequentialImpulse, c));
+    for (RigidSolverKind c : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte}) {
+        Setup s(settings_for(c));
         // Two particles strike off-centre, one the top face from above, one the +x face.
         s.rows.particles.push_back({Vec3(Real(0.3), Real(0.5), Real(0.1)), Vec3(Real(0.5), -2, 0), Real(0.5),
                                     s.box.index, Vec3::UnitY()});
@@ -160,7 +149,7 @@ TEST_CASE("outside rows off-centre: linear and angular momentum are conserved, t
         const Vec3 p0 = s.momentum(), l0 = s.angular_momentum();
         s.pipeline.step(Real(1) / 60);
         CHECK((s.momentum() - p0).norm() <= Real(1e-5) * p0.norm());
-        if (c != PositionCorrection::SoftStep) {
+        if (c != RigidSolverKind::SoftStep) {
             // One solve before any motion: each impulse pair acts at one point, so the angular momentum
             // about a fixed point is conserved to rounding. (The soft step keeps the arms of the step's
             // start through its sub-steps while the bodies move, first order as its contacts do, so it
@@ -178,7 +167,7 @@ TEST_CASE("outside rows off-centre: linear and angular momentum are conserved, t
 }
 
 TEST_CASE("a removed source of rows is no longer solved", "[rigid][rows]") {
-    Setup s(settings_for(RigidSolverKind::SequentialImpulse, PositionCorrection::SoftStep));
+    Setup s(settings_for(RigidSolverKind::SoftStep));
     s.rows.particles.push_back({Vec3(Real(0.5), 0, 0), Vec3(-3, 0, 0), 1, s.box.index, Vec3::UnitX()});
     CHECK_THROWS_AS(s.rigid.add_rows(&s.rows), RigidError);  // twice
     CHECK_THROWS_AS(s.rigid.add_rows(nullptr), RigidError);

@@ -147,7 +147,6 @@ TEST_CASE("a minimal scene has the documented defaults", "[scene]") {
     CHECK(s.settings.rigid.gravity == def.rigid.gravity);
     CHECK(s.settings.rigid.solver == def.rigid.solver);
     CHECK(s.settings.rigid.velocity_iterations == def.rigid.velocity_iterations);
-    CHECK(s.settings.rigid.correction == def.rigid.correction);
     CHECK(s.settings.rigid.sleeping == def.rigid.sleeping);
 }
 
@@ -165,7 +164,6 @@ TEST_CASE("every key of the full scene lands in WorldSettings and the bodies", "
     CHECK(r.solver == RigidSolverKind::Newton);
     CHECK(r.velocity_iterations == 7);
     CHECK_FALSE(r.warm_starting);
-    CHECK(r.correction == PositionCorrection::Baumgarte);
     CHECK(r.baumgarte == Real(0.3));
     CHECK(r.linear_slop == Real(0.01));
     CHECK(r.restitution_threshold == Real(0.5));
@@ -437,4 +435,22 @@ TEST_CASE("soft bodies: every builder, method and setting is read as written", "
     CHECK(world->soft().all_finite());
     // The attached particle sits at the hook's point.
     CHECK((built_rope.p.x[0] - Vec3(3, Real(3.9), 0)).norm() < 1e-5);
+}
+
+TEST_CASE("the solver is one kind; files naming sequential_impulse and a position_correction still load", "[scene]") {
+    // tests/data/scenes/good/joints.json is written in the older form.
+    CHECK(parse_scene_file(kScenes + "/good/joints.json").settings.rigid.solver == RigidSolverKind::SplitImpulse);
+    for (RigidSolverKind k : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,
+                              RigidSolverKind::Newton}) {
+        const std::string text = std::string(R"({"format": "sinew-scene", "version": 1, "settings": {"solver": {"kind": ")") +
+                                 rigid_solver_name(k) + "\"}}}";
+        CHECK(parse_scene_string(text, "inline").settings.rigid.solver == k);
+        RigidSolverKind parsed{};
+        CHECK(parse_rigid_solver(rigid_solver_name(k), parsed));
+        CHECK(parsed == k);
+    }
+    // The old "sequential_impulse" alone meant the default correction, the soft step.
+    CHECK(parse_scene_string(R"({"format": "sinew-scene", "version": 1, "settings": {"solver": {"kind": "sequential_impulse"}}})",
+                           "inline")
+              .settings.rigid.solver == RigidSolverKind::SoftStep);
 }

@@ -13,7 +13,7 @@ TEST_CASE("free fall matches the closed form of semi-implicit Euler", "[world]")
     WorldSettings ws;
     ws.time_step = Real(1) / 60;
     ws.rigid.sleeping = false;
-    ws.rigid.correction = PositionCorrection::SplitImpulse;  // one integration per step
+    ws.rigid.solver = RigidSolverKind::SplitImpulse;  // one integration per step
     World world(ws);
     BodyDef def;
     def.shape = make_sphere(Real(0.5));
@@ -40,7 +40,7 @@ TEST_CASE("free fall matches the closed form of semi-implicit Euler", "[world]")
 TEST_CASE("soft step free fall matches semi-implicit Euler at the sub-step", "[world]") {
     WorldSettings ws;
     ws.rigid.sleeping = false;
-    ws.rigid.correction = PositionCorrection::SoftStep;
+    ws.rigid.solver = RigidSolverKind::SoftStep;
     ws.rigid.substeps = 4;
     World world(ws);
     BodyDef def;
@@ -105,7 +105,7 @@ TEST_CASE("a coupling hook between solve and integrate changes this step's posit
     // show up in the same step's positions.
     WorldSettings ws;
     ws.rigid.gravity = Vec3::Zero();
-    ws.rigid.correction = GENERATE(PositionCorrection::SplitImpulse, PositionCorrection::SoftStep);
+    ws.rigid.solver = GENERATE(RigidSolverKind::SplitImpulse, RigidSolverKind::SoftStep);
     World world(ws);
     BodyDef def;
     def.shape = make_sphere(Real(0.5));
@@ -117,7 +117,7 @@ TEST_CASE("a coupling hook between solve and integrate changes this step's posit
     // Sequential impulses integrate positions once per step, in IntegratePositions: the whole step
     // moves at 6 m/s. Soft step integrates its sub-steps inside SolveVelocities but leaves the last
     // one to IntegratePositions, so the hook moves that last sub-step (h / substeps).
-    const double expected = ws.rigid.correction == PositionCorrection::SoftStep
+    const double expected = ws.rigid.solver == RigidSolverKind::SoftStep
                                 ? 6.0 / 60 / ws.rigid.effective_substeps()
                                 : 6.0 / 60;
     CHECK(world.rigid().transform(id).p.x() == Approx(expected).margin(1e-6));

@@ -110,18 +110,9 @@ sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, i
         if (sinew_status s = check_not_stepping(w, fn)) return s;
         RigidSettings r = w->rigid().settings();
         switch (enum_value(solver)) {
-            case SINEW_SOLVER_SOFT_STEP:
-                r.solver = RigidSolverKind::SequentialImpulse;
-                r.correction = PositionCorrection::SoftStep;
-                break;
-            case SINEW_SOLVER_SPLIT_IMPULSE:
-                r.solver = RigidSolverKind::SequentialImpulse;
-                r.correction = PositionCorrection::SplitImpulse;
-                break;
-            case SINEW_SOLVER_BAUMGARTE:
-                r.solver = RigidSolverKind::SequentialImpulse;
-                r.correction = PositionCorrection::Baumgarte;
-                break;
+            case SINEW_SOLVER_SOFT_STEP: r.solver = RigidSolverKind::SoftStep; break;
+            case SINEW_SOLVER_SPLIT_IMPULSE: r.solver = RigidSolverKind::SplitImpulse; break;
+            case SINEW_SOLVER_BAUMGARTE: r.solver = RigidSolverKind::Baumgarte; break;
             case SINEW_SOLVER_NEWTON: r.solver = RigidSolverKind::Newton; break;
             default: return invalid(fn, "solver = " + std::to_string(enum_value(solver)) + " is not a sinew_solver");
         }

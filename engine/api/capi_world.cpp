@@ -44,9 +44,9 @@ sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out)
         ws.rigid.velocity_iterations = def->velocity_iterations;
         ws.rigid.sleeping = def->enable_sleep == 1;
         switch (solver) {
-            case SINEW_SOLVER_SOFT_STEP: ws.rigid.correction = PositionCorrection::SoftStep; break;
-            case SINEW_SOLVER_SPLIT_IMPULSE: ws.rigid.correction = PositionCorrection::SplitImpulse; break;
-            case SINEW_SOLVER_BAUMGARTE: ws.rigid.correction = PositionCorrection::Baumgarte; break;
+            case SINEW_SOLVER_SOFT_STEP: ws.rigid.solver = RigidSolverKind::SoftStep; break;
+            case SINEW_SOLVER_SPLIT_IMPULSE: ws.rigid.solver = RigidSolverKind::SplitImpulse; break;
+            case SINEW_SOLVER_BAUMGARTE: ws.rigid.solver = RigidSolverKind::Baumgarte; break;
             default: ws.rigid.solver = RigidSolverKind::Newton; break;
         }
         auto world = std::make_unique<World>(ws);  // validates the rest (throws invalid_argument)

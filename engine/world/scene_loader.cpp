@@ -95,15 +95,26 @@ private:
             o.allow_keys({"kind", "velocity_iterations", "warm_starting", "position_correction", "baumgarte", "slop",
                           "restitution_threshold", "contact_margin", "max_correction_velocity", "newton", "substeps",
                           "contact_hertz", "contact_damping_ratio", "contact_push_velocity"});
+            // One solver kind. Files of format 1 before it named the sequential-impulse solvers as
+            // "sequential_impulse" plus a "position_correction"; they still load (docs/scene-format.md).
             static const std::pair<const char*, RigidSolverKind> kinds[] = {
-                {"sequential_impulse", RigidSolverKind::SequentialImpulse}, {"newton", RigidSolverKind::Newton}};
-            static const std::pair<const char*, PositionCorrection> corrections[] = {
-                {"baumgarte", PositionCorrection::Baumgarte}, {"split_impulse", PositionCorrection::SplitImpulse},
-                {"soft_step", PositionCorrection::SoftStep}};
+                {"soft_step", RigidSolverKind::SoftStep},   {"split_impulse", RigidSolverKind::SplitImpulse},
+                {"baumgarte", RigidSolverKind::Baumgarte}, {"newton", RigidSolverKind::Newton},
+                {"sequential_impulse", RigidSolverKind::SoftStep}};
+            static const std::pair<const char*, RigidSolverKind> corrections[] = {
+                {"baumgarte", RigidSolverKind::Baumgarte}, {"split_impulse", RigidSolverKind::SplitImpulse},
+                {"soft_step", RigidSolverKind::SoftStep}};
             r.solver = read_enum(o, "kind", r.solver, kinds);
+            if (o.find("position_correction")) {
+                const bool legacy = o.find("kind") && o.get("kind").json() == "sequential_impulse";
+                if (!legacy)
+                    o.get("position_correction")
+                        .fail("position_correction is only read with \"kind\": \"sequential_impulse\"; name the solver "
+                              "in kind (soft_step, split_impulse, baumgarte, newton)");
+                r.solver = read_enum(o, "position_correction", r.solver, corrections);
+            }
             r.velocity_iterations = read_int(o, "velocity_iterations", r.velocity_iterations, 1, 1000);
             r.warm_starting = read_bool(o, "warm_starting", r.warm_starting);
-            r.correction = read_enum(o, "position_correction", r.correction, corrections);
             r.baumgarte = read_real(o, "baumgarte", r.baumgarte, Range::UnitInterval);
             r.linear_slop = read_real(o, "slop", r.linear_slop, Range::NonNegative);
             if (r.linear_slop >= 1) o.get("slop").fail("slop must be < 1 m, got " + o.get("slop").json().dump());

@@ -150,10 +150,9 @@ Vec3 origin_to_write(const Vec3& com_world, const Quat& q, const Vec3& local_com
 Json settings_json(const World& world) {
     const RigidSettings& r = world.rigid().settings();
     Json solver = Json::object();
-    solver["kind"] = solver_kind_name(r.solver);
+    solver["kind"] = rigid_solver_name(r.solver);
     solver["velocity_iterations"] = r.velocity_iterations;
     solver["warm_starting"] = r.warm_starting;
-    solver["position_correction"] = position_correction_name(r.correction);
     solver["baumgarte"] = number(r.baumgarte);
     solver["slop"] = number(r.linear_slop);
     solver["restitution_threshold"] = number(r.restitution_threshold);

@@ -27,21 +27,19 @@ struct SinewVariant {
     const char* variant;
     RigidSolverKind solver;
     bool warm;
-    PositionCorrection correction;
     SimdKernel simd = SimdKernel::Auto;  ///< soft step's contact kernel
 };
 
 // Soft step runs iterations/2 sub-steps: each sub-step makes two passes over the contacts (solve and
 // relax), so its cost per step matches `iterations` passes of the others.
 const SinewVariant kVariants[] = {
-    {"sinew-si", "soft-step", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SoftStep},
+    {"sinew-si", "soft-step", RigidSolverKind::SoftStep, true},
     // The same arithmetic in the x86-64 baseline's four lanes, for machines without AVX (bit-identical).
-    {"sinew-si", "soft-step-sse2", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SoftStep,
-     SimdKernel::Sse2},
-    {"sinew-si", "warm+split", RigidSolverKind::SequentialImpulse, true, PositionCorrection::SplitImpulse},
-    {"sinew-si", "cold+split", RigidSolverKind::SequentialImpulse, false, PositionCorrection::SplitImpulse},
-    {"sinew-si", "warm+baumgarte", RigidSolverKind::SequentialImpulse, true, PositionCorrection::Baumgarte},
-    {"sinew-newton", "shock", RigidSolverKind::Newton, false, PositionCorrection::SplitImpulse},
+    {"sinew-si", "soft-step-sse2", RigidSolverKind::SoftStep, true, SimdKernel::Sse2},
+    {"sinew-si", "warm+split", RigidSolverKind::SplitImpulse, true},
+    {"sinew-si", "cold+split", RigidSolverKind::SplitImpulse, false},
+    {"sinew-si", "warm+baumgarte", RigidSolverKind::Baumgarte, true},
+    {"sinew-newton", "shock", RigidSolverKind::Newton, false},
 };
 
 class SinewContender final : public RigidContender {
@@ -50,7 +48,6 @@ public:
         SceneDesc s = scene;
         s.settings.rigid.solver = v.solver;
         s.settings.rigid.warm_starting = v.warm;
-        s.settings.rigid.correction = v.correction;
         s.settings.rigid.velocity_iterations = iterations;
         s.settings.rigid.substeps = 0;  // soft step: iterations / 2 sub-steps of two passes each
         s.settings.rigid.newton_contact_iterations = iterations;
@@ -63,7 +60,7 @@ public:
         run.variant = v.variant;
         run.bodies = int(dyn_.size());
         run.iterations = iterations;
-        if (v.correction == PositionCorrection::SoftStep) {
+        if (v.solver == RigidSolverKind::SoftStep) {
             set_simd_kernel(simd_);
             run.simd = simd_kernel_name(active_simd_kernel());
             set_simd_kernel(SimdKernel::Auto);
