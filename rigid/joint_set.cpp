@@ -29,11 +29,8 @@ const char* joint_type_name(JointType t) {
 struct JointSet::Impl {
     std::vector<JointData> joints;        // by slot
     std::vector<JointRows> rows;          // by slot: this (sub-)step's prepared rows
-    std::vector<std::uint32_t> generation;
-    std::vector<std::uint8_t> alive;
-    std::vector<std::uint32_t> free_slots;
+    Slots slots;                          // joint slots and generations (engine/core/slots.hpp)
     std::vector<std::uint32_t> active;    // slots prepared for this step, in slot order
-    std::size_t count = 0;
 
     // This step's method (see prepare()), set by prepare() and used until finish().
     enum class Correction : std::uint8_t { Baumgarte, Soft, Projection };
@@ -52,9 +49,7 @@ struct JointSet::Impl {
     mutable bool filter_dirty = false;
     std::uint64_t filter_revision = 0;  // bumped whenever the filtered pairs may change
 
-    bool valid(JointId id) const {
-        return !id.is_null() && id.index < generation.size() && alive[id.index] && generation[id.index] == id.generation;
-    }
+    bool valid(JointId id) const { return slots.valid(id.index, id.generation); }
     void check(JointId id, const char* where) const {
         if (!valid(id))
             throw RigidError(std::string(where) + ": stale or unknown joint id (index " + std::to_string(id.index) +
@@ -69,9 +64,7 @@ struct JointSet::Impl {
         return joints[id.index];
     }
     void remove(std::uint32_t slot) {
-        alive[slot] = 0;
-        free_slots.push_back(slot);
-        --count;
+        slots.release(slot);
         filter_dirty = true;
         ++filter_revision;
     }
@@ -197,25 +190,16 @@ JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
     }
 
     Impl& m = *impl_;
-    std::uint32_t slot;
-    if (!m.free_slots.empty()) {
-        slot = m.free_slots.back();
-        m.free_slots.pop_back();
-    } else {
-        slot = static_cast<std::uint32_t>(m.joints.size());
+    if (m.slots.count() == m.slots.size()) {  // no free slot: room for a new one first (may throw)
         m.joints.emplace_back();
         m.rows.emplace_back();
-        m.generation.push_back(0);
-        m.alive.push_back(0);
     }
-    m.joints[slot] = j;
-    m.rows[slot] = JointRows{};
-    if (++m.generation[slot] == 0) ++m.generation[slot];  // 0 is the null generation
-    m.alive[slot] = 1;
-    ++m.count;
+    const Slots::Acquired got = m.slots.acquire();
+    m.joints[got.index] = j;
+    m.rows[got.index] = JointRows{};
     m.filter_dirty = true;
     ++m.filter_revision;
-    return {slot, m.generation[slot]};
+    return {got.index, got.generation};
 }
 
 void JointSet::destroy(JointId id) {
@@ -224,32 +208,32 @@ void JointSet::destroy(JointId id) {
 }
 
 bool JointSet::valid(JointId id) const { return impl_->valid(id); }
-std::size_t JointSet::count() const { return impl_->count; }
+std::size_t JointSet::count() const { return impl_->slots.count(); }
 
 std::vector<JointId> JointSet::ids() const {
     const Impl& m = *impl_;
     std::vector<JointId> out;
-    out.reserve(m.count);
+    out.reserve(m.slots.count());
     for (std::uint32_t s = 0; s < m.joints.size(); ++s)
-        if (m.alive[s]) out.push_back({s, m.generation[s]});
+        if (m.slots.alive(s)) out.push_back({s, m.slots.generation(s)});
     return out;
 }
 
 void JointSet::destroy_attached(std::uint32_t slot) {
     Impl& m = *impl_;
     for (std::uint32_t s = 0; s < m.joints.size(); ++s)
-        if (m.alive[s] && (m.joints[s].def.body_a.index == slot || m.joints[s].def.body_b.index == slot)) m.remove(s);
+        if (m.slots.alive(s) && (m.joints[s].def.body_a.index == slot || m.joints[s].def.body_b.index == slot)) m.remove(s);
 }
 
 std::uint64_t JointSet::filter_revision() const { return impl_->filter_revision; }
 
 bool JointSet::filters_pair(std::uint32_t a, std::uint32_t b) const {
     const Impl& m = *impl_;
-    if (m.count == 0) return false;
+    if (m.slots.count() == 0) return false;
     if (m.filter_dirty) {
         m.filter_keys.clear();
         for (std::uint32_t s = 0; s < m.joints.size(); ++s)
-            if (m.alive[s] && !m.joints[s].def.collide_connected)
+            if (m.slots.alive(s) && !m.joints[s].def.collide_connected)
                 m.filter_keys.push_back(Impl::pair_key(m.joints[s].def.body_a.index, m.joints[s].def.body_b.index));
         std::sort(m.filter_keys.begin(), m.filter_keys.end());
         m.filter_dirty = false;
@@ -260,7 +244,7 @@ bool JointSet::filters_pair(std::uint32_t a, std::uint32_t b) const {
 void JointSet::for_each_connection(const std::function<void(std::uint32_t, std::uint32_t)>& f) const {
     const Impl& m = *impl_;
     for (std::uint32_t s = 0; s < m.joints.size(); ++s)
-        if (m.alive[s]) f(m.joints[s].def.body_a.index, m.joints[s].def.body_b.index);
+        if (m.slots.alive(s)) f(m.joints[s].def.body_a.index, m.joints[s].def.body_b.index);
 }
 
 const JointDef& JointSet::def(JointId id) const { return impl_->at(id, "joint def").def; }
@@ -326,7 +310,7 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     m.h = h;
     m.active.clear();
     m.moving.clear();
-    if (m.count == 0) return;  // nothing to prepare (and no per-body scratch to clear)
+    if (m.slots.count() == 0) return;  // nothing to prepare (and no per-body scratch to clear)
     // How position error is removed this step:
     // - Soft (a sub-stepping solver asked for soft joints): Catto 2011 soft rows in its biased passes.
     // - Projection (sequential impulses with split impulses and warm starting, the default): the velocity
@@ -357,7 +341,7 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     m.projection_bias = Softness{1 / h, 1, 0, kMaxProjection};
     m.mark.assign(st.x.size(), 0);
     for (std::uint32_t s = 0; s < m.joints.size(); ++s) {
-        if (!m.alive[s]) continue;
+        if (!m.slots.alive(s)) continue;
         JointData& j = m.joints[s];
         JointRows& r = m.rows[s];
         r = JointRows{};
@@ -431,7 +415,7 @@ void JointSet::warm_start(const RigidSystem& sys, const BodyVelocities& vel) {
     const RigidSystem::State& st = sys.state();
     RowPass pass{vel, Softness{}, true};
     for (std::uint32_t s : m.active)
-        if (m.alive[s]) warm_start_joint(m.joints[s], m.rows[s], st, pass);  // skip joints destroyed since prepare()
+        if (m.slots.alive(s)) warm_start_joint(m.joints[s], m.rows[s], st, pass);  // skip joints destroyed since prepare()
 }
 
 void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) {
@@ -441,7 +425,7 @@ void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use
     const int sweeps = m.correction == Impl::Correction::Soft ? kSoftSweeps : 1;
     for (int k = 0; k < sweeps; ++k)
         for (std::uint32_t s : m.active)
-            if (m.alive[s]) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, pass);
+            if (m.slots.alive(s)) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, pass);
 }
 
 void JointSet::project_positions(RigidSystem& sys) {
@@ -459,7 +443,7 @@ void JointSet::project_positions(RigidSystem& sys) {
         }
         RowPass pass{BodyVelocities::of_arrays(m.pv, m.pw), m.projection_bias, false};
         for (std::uint32_t s : m.active) {
-            if (!m.alive[s]) continue;
+            if (!m.slots.alive(s)) continue;
             JointImpulses acc;  // pseudo-impulses live for one sweep
             solve_joint(m.joints[s], acc, m.rows[s], st, pass);
         }
@@ -480,7 +464,7 @@ void JointSet::finish(RigidSystem& sys, Real /*h*/) {
     // Impulses are per prepared (sub-)step, so the force is impulse / that step's length.
     const Real inv_h = 1 / m.h;
     for (std::uint32_t s : m.active) {
-        if (!m.alive[s]) continue;
+        if (!m.slots.alive(s)) continue;
         JointData& j = m.joints[s];
         const JointRows& r = m.rows[s];
         const JointImpulses& acc = j.impulses;
@@ -506,7 +490,7 @@ void JointSet::finish(RigidSystem& sys, Real /*h*/) {
         j.reaction_torque = inv_h * t;
         const Real limit = j.def.break_force;
         if (limit > 0 && (j.reaction_force.norm() > limit || j.reaction_torque.norm() > limit)) {
-            m.broken.push_back({s, m.generation[s]});
+            m.broken.push_back({s, m.slots.generation(s)});
             m.remove(s);
         }
     }

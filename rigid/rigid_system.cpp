@@ -137,14 +137,9 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     Aabb box = def.shape.bounds(pose);
     if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");
 
-    std::uint32_t slot;
-    if (!free_slots_.empty()) {
-        slot = free_slots_.back();
-        free_slots_.pop_back();
-    } else {
-        slot = static_cast<std::uint32_t>(generation_.size());
-        generation_.push_back(0);
-        alive_.push_back(false);
+    const Slots::Acquired got = slots_.acquire();
+    const std::uint32_t slot = got.index;
+    if (got.fresh) {
         type_.emplace_back();
         shape_.emplace_back();
         material_.emplace_back();
@@ -171,9 +166,6 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         state_.torque.emplace_back();
     }
     const bool dynamic = def.type == BodyType::Dynamic;
-    ++generation_[slot];
-    if (generation_[slot] == 0) ++generation_[slot];  // wrapped: 0 is the null generation
-    alive_[slot] = true;
     type_[slot] = def.type;
     shape_[slot] = def.shape;
     material_[slot] = def.material;
@@ -199,21 +191,17 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     state_.force[slot].setZero();
     state_.torque[slot].setZero();
     proxy_[slot] = tree_.create(box, slot, settings_.contact_margin);
-    ++alive_count_;
-    return {slot, generation_[slot]};
+    return {slot, got.generation};
 }
 
 void RigidSystem::check(BodyId id, const char* where) const {
     if (id.is_null()) throw RigidError(std::string(where) + ": body id is null");
-    if (id.index >= generation_.size() || !alive_[id.index] || generation_[id.index] != id.generation)
+    if (!slots_.valid(id.index, id.generation))
         throw RigidError(std::string(where) + ": stale or unknown body id (index " + std::to_string(id.index) +
                          ", generation " + std::to_string(id.generation) + ")");
 }
 
-bool RigidSystem::valid(BodyId id) const {
-    return !id.is_null() && id.index < generation_.size() && alive_[id.index] &&
-           generation_[id.index] == id.generation;
-}
+bool RigidSystem::valid(BodyId id) const { return slots_.valid(id.index, id.generation); }
 
 void RigidSystem::destroy_body(BodyId id) {
     check(id, "destroy_body");
@@ -227,7 +215,6 @@ void RigidSystem::destroy_body(BodyId id) {
     joints_->destroy_attached(s);
     tree_.destroy(proxy_[s]);
     proxy_[s] = DynamicTree::kNull;
-    alive_[s] = false;
     shape_[s] = Shape{};
     state_.inv_mass[s] = 0;
     state_.v[s].setZero();
@@ -235,15 +222,14 @@ void RigidSystem::destroy_body(BodyId id) {
     auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
     contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
     prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
-    free_slots_.push_back(s);
-    --alive_count_;
+    slots_.release(s);
 }
 
 std::vector<BodyId> RigidSystem::bodies() const {
     std::vector<BodyId> out;
-    out.reserve(alive_count_);
-    for (std::uint32_t i = 0; i < generation_.size(); ++i)
-        if (alive_[i]) out.push_back({i, generation_[i]});
+    out.reserve(slots_.count());
+    for (std::uint32_t i = 0; i < slots_.size(); ++i)
+        if (slots_.alive(i)) out.push_back({i, slots_.generation(i)});
     return out;
 }
 
@@ -364,8 +350,8 @@ std::uint64_t RigidSystem::user_data(BodyId id) const { check(id, "user_data"); 
 
 double RigidSystem::kinetic_energy() const {
     double e = 0;
-    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
-        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
         Mat3 r = state_.q[s].toRotationMatrix();
         Mat3 inertia = r * inv_inertia_local_[s].inverse() * r.transpose();
         e += 0.5 * mass_[s] * state_.v[s].squaredNorm() + 0.5 * state_.w[s].dot(inertia * state_.w[s]);
@@ -381,8 +367,8 @@ Real RigidSystem::max_penetration() const {
 }
 
 bool RigidSystem::all_finite() const {
-    for (std::uint32_t s = 0; s < generation_.size(); ++s)
-        if (alive_[s] && (!is_finite(state_.x[s]) || !is_finite(state_.q[s]) || !is_finite(state_.v[s]) ||
+    for (std::uint32_t s = 0; s < slots_.size(); ++s)
+        if (slots_.alive(s) && (!is_finite(state_.x[s]) || !is_finite(state_.q[s]) || !is_finite(state_.v[s]) ||
                           !is_finite(state_.w[s])))
             return false;
     return true;
@@ -412,9 +398,9 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
 }
 
 void RigidSystem::prepare_mass_state() {
-    const std::size_t n = generation_.size();
+    const std::size_t n = slots_.size();
     for (std::size_t s = 0; s < n; ++s) {
-        if (!(alive_[s] && type_[s] == BodyType::Dynamic && awake_[s])) {
+        if (!(slots_.alive(s) && type_[s] == BodyType::Dynamic && awake_[s])) {
             // Static, kinematic and sleeping bodies are immovable in this step's solve.
             state_.inv_mass[s] = 0;
             state_.inv_inertia_world[s].setZero();
@@ -427,7 +413,7 @@ void RigidSystem::prepare_mass_state() {
 }
 
 void RigidSystem::integrate_velocities(Real h) {
-    const std::size_t n = generation_.size();
+    const std::size_t n = slots_.size();
     for (std::size_t s = 0; s < n; ++s) {
         if (state_.inv_mass[s] == 0) continue;
         Vec3 v = state_.v[s] + h * (gravity_scale_[s] * settings_.gravity + body_inv_mass_[s] * state_.force[s]);
@@ -441,8 +427,8 @@ void RigidSystem::integrate_velocities(Real h) {
 void RigidSystem::detect_collisions(Real h) {
     const Real margin = settings_.contact_margin;
     // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
-    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
-        if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
         tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), h * state_.v[s], margin);
     }
     // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
@@ -465,11 +451,11 @@ void RigidSystem::detect_collisions(Real h) {
 
     // Each body's detection pose once per step (a body is in several pairs), with its rotation as a
     // matrix: carrying a cached manifold's points costs two rotations per point.
-    const std::size_t slots = generation_.size();
+    const std::size_t slots = slots_.size();
     detect_xf_.resize(slots);
     detect_rot_.resize(slots);
     for (std::uint32_t s = 0; s < slots; ++s) {
-        if (!alive_[s]) continue;
+        if (!slots_.alive(s)) continue;
         detect_xf_[s] = detection_transform(s, h);
         detect_rot_[s] = detect_xf_[s].q.toRotationMatrix();
     }
@@ -607,8 +593,8 @@ void RigidSystem::add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Tr
 
 void RigidSystem::integrate_positions(Real h) {
     const bool integrate = !solver_->integrates_itself();
-    for (std::uint32_t s = 0; s < generation_.size(); ++s) {
-        if (!alive_[s] || type_[s] == BodyType::Static || !awake_[s]) continue;
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
         if (integrate) {
             state_.x[s] += h * state_.v[s];
             state_.q[s] = integrate_rotation(state_.q[s], state_.w[s], h);
@@ -644,8 +630,8 @@ void RigidSystem::wake_island(std::uint32_t s) {
     }
     // Islands are from the last update_sleep(); waking is rare, so a linear scan is fine.
     std::uint32_t root = find_root(s);
-    for (std::uint32_t i = 0; i < generation_.size(); ++i)
-        if (alive_[i] && type_[i] == BodyType::Dynamic && !awake_[i] && find_root(i) == root) {
+    for (std::uint32_t i = 0; i < slots_.size(); ++i)
+        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && !awake_[i] && find_root(i) == root) {
             awake_[i] = true;
             sleep_timer_[i] = 0;
             // Woken mid-step: it takes part in this step's solve with its real mass.
@@ -656,7 +642,7 @@ void RigidSystem::wake_island(std::uint32_t s) {
 }
 
 void RigidSystem::update_sleep(Real h) {
-    const std::size_t n = generation_.size();
+    const std::size_t n = slots_.size();
     // Islands: union-find over contacts between two dynamic bodies (static bodies do not join islands).
     for (std::uint32_t s = 0; s < n; ++s) island_[s] = s;
     for (const ContactManifold& c : contacts_) {
@@ -676,7 +662,7 @@ void RigidSystem::update_sleep(Real h) {
     island_min_timer_.assign(n, kRealMax);
     island_awake_.assign(n, 0);
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
         if (awake_[s]) {
             if (!allow_sleep_[s] || state_.v[s].squaredNorm() > lin2 || state_.w[s].squaredNorm() > ang2)
                 sleep_timer_[s] = 0;
@@ -688,7 +674,7 @@ void RigidSystem::update_sleep(Real h) {
         island_awake_[r] |= awake_[s] ? 1 : 0;
     }
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!alive_[s] || type_[s] != BodyType::Dynamic) continue;
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
         std::uint32_t r = find_root(s);
         if (island_awake_[r] && island_min_timer_[r] >= settings_.sleep_time) {
             awake_[s] = false;  // the whole island falls asleep together

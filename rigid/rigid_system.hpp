@@ -15,6 +15,7 @@
 #include "engine/core/narrowphase.hpp"
 #include "engine/core/pipeline.hpp"
 #include "engine/core/ray_cast.hpp"
+#include "engine/core/slots.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
@@ -63,12 +64,12 @@ public:
     BodyId create_body(const BodyDef& def);   ///< validates def; throws RigidError and changes nothing
     void destroy_body(BodyId id);
     bool valid(BodyId id) const;
-    std::size_t body_count() const { return alive_count_; }
+    std::size_t body_count() const { return slots_.count(); }
     /// Ids of all live bodies in slot order.
     std::vector<BodyId> bodies() const;
-    BodyId id_of_slot(std::uint32_t slot) const { return {slot, generation_[slot]}; }
-    std::size_t slot_count() const { return generation_.size(); }
-    bool slot_alive(std::uint32_t slot) const { return alive_[slot]; }
+    BodyId id_of_slot(std::uint32_t slot) const { return {slot, slots_.generation(slot)}; }
+    std::size_t slot_count() const { return slots_.size(); }
+    bool slot_alive(std::uint32_t slot) const { return slots_.alive(slot); }
 
     /// Body origin transform (not the centre of mass).
     Transform transform(BodyId id) const;
@@ -202,9 +203,7 @@ private:
     RigidSettings settings_;
     State state_;
     // cold per-slot data
-    std::vector<std::uint32_t> generation_;
-    std::vector<bool> alive_;
-    std::vector<std::uint32_t> free_slots_;
+    Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
     std::vector<BodyType> type_;
     std::vector<Shape> shape_;
     std::vector<Material> material_;
@@ -223,7 +222,6 @@ private:
     std::vector<std::uint64_t> pair_keys_;
     // The broad phase's pairs are recomputed only when the tree or the joint filter changed since.
     std::uint64_t pairs_tree_revision_ = ~std::uint64_t(0), pairs_filter_revision_ = ~std::uint64_t(0);
-    std::size_t alive_count_ = 0;
 
     DynamicTree tree_;
     std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;

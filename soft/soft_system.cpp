@@ -49,22 +49,11 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     b.def = std::move(def);
     if (b.def.long_range_attachments) build_long_range_attachments(b);
 
-    std::uint32_t slot;
-    if (!free_slots_.empty()) {
-        slot = free_slots_.back();
-        free_slots_.pop_back();
-        bodies_[slot] = std::move(b);
-        alive_[slot] = true;
-    } else {
-        slot = static_cast<std::uint32_t>(bodies_.size());
-        bodies_.push_back(std::move(b));
-        generation_.push_back(0);
-        alive_.push_back(true);
-    }
-    ++generation_[slot];
-    if (generation_[slot] == 0) generation_[slot] = 1;  // 0 is the null generation
-    ++alive_count_;
-    return {slot, generation_[slot]};
+    // With no free slot, room for a new one first (may throw; nothing else has changed then).
+    if (slots_.count() == slots_.size()) bodies_.emplace_back();
+    const Slots::Acquired got = slots_.acquire();
+    bodies_[got.index] = std::move(b);
+    return {got.index, got.generation};
 }
 
 void SoftSystem::check(SoftBodyId id, const char* where) const {
@@ -74,22 +63,18 @@ void SoftSystem::check(SoftBodyId id, const char* where) const {
                         ", generation " + std::to_string(id.generation) + ")");
 }
 
-bool SoftSystem::valid(SoftBodyId id) const {
-    return !id.is_null() && id.index < generation_.size() && alive_[id.index] && generation_[id.index] == id.generation;
-}
+bool SoftSystem::valid(SoftBodyId id) const { return slots_.valid(id.index, id.generation); }
 
 void SoftSystem::destroy_body(SoftBodyId id) {
     check(id, "destroy_body");
     bodies_[id.index] = SoftBody{};
-    alive_[id.index] = false;
-    free_slots_.push_back(id.index);
-    --alive_count_;
+    slots_.release(id.index);
 }
 
 std::vector<SoftBodyId> SoftSystem::bodies() const {
     std::vector<SoftBodyId> out;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (alive_[s]) out.push_back(id_of_slot(s));
+        if (slots_.alive(s)) out.push_back(id_of_slot(s));
     return out;
 }
 
@@ -207,20 +192,20 @@ void SoftSystem::detach(SoftBodyId id, std::uint32_t i) {
 std::size_t SoftSystem::particle_count() const {
     std::size_t n = 0;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (alive_[s]) n += bodies_[s].p.size();
+        if (slots_.alive(s)) n += bodies_[s].p.size();
     return n;
 }
 
 double SoftSystem::kinetic_energy() const {
     double e = 0;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (alive_[s]) e += bodies_[s].kinetic_energy();
+        if (slots_.alive(s)) e += bodies_[s].kinetic_energy();
     return e;
 }
 
 bool SoftSystem::all_finite() const {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!alive_[s]) continue;
+        if (!slots_.alive(s)) continue;
         for (std::size_t i = 0; i < bodies_[s].p.size(); ++i)
             if (!is_finite(bodies_[s].p.x[i]) || !is_finite(bodies_[s].p.v[i])) return false;
     }
@@ -286,7 +271,7 @@ void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!alive_[s]) continue;
+        if (!slots_.alive(s)) continue;
         SoftBody& b = bodies_[s];
         b.stepping = false;
         b.gravity = settings_.gravity * b.def.gravity_scale;
@@ -313,7 +298,7 @@ void SoftSystem::begin_step(SoftBody& b, Real h) {
 
 void SoftSystem::detect_collisions(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!alive_[s]) continue;
+        if (!slots_.alive(s)) continue;
         SoftBody& b = bodies_[s];
         if (!b.stepping) {
             // Asleep: woken by a collider that moves near it. The colliders are refreshed just before
@@ -328,7 +313,7 @@ void SoftSystem::detect_collisions(Real h) {
 
 void SoftSystem::solve_velocities(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!alive_[s] || !bodies_[s].stepping) continue;
+        if (!slots_.alive(s) || !bodies_[s].stepping) continue;
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
         p.x.swap(p.x_next);  // work on the predicted positions
@@ -345,7 +330,7 @@ void SoftSystem::solve_velocities(Real h) {
 
 void SoftSystem::integrate_positions(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!alive_[s] || !bodies_[s].stepping) continue;
+        if (!slots_.alive(s) || !bodies_[s].stepping) continue;
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
         // A velocity change made after the solve (a coupling layer's impulse) moves this step's positions,

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "engine/core/pipeline.hpp"
+#include "engine/core/slots.hpp"
 #include "soft/collider.hpp"
 #include "soft/particle_collision.hpp"
 #include "soft/soft_body.hpp"
@@ -47,11 +48,11 @@ public:
     SoftBodyId create_body(SoftBodyDef def);
     void destroy_body(SoftBodyId id);
     bool valid(SoftBodyId id) const;
-    std::size_t body_count() const { return alive_count_; }
+    std::size_t body_count() const { return slots_.count(); }
     std::vector<SoftBodyId> bodies() const;
     std::size_t slot_count() const { return bodies_.size(); }
-    bool slot_alive(std::uint32_t slot) const { return alive_[slot]; }
-    SoftBodyId id_of_slot(std::uint32_t slot) const { return {slot, generation_[slot]}; }
+    bool slot_alive(std::uint32_t slot) const { return slots_.alive(slot); }
+    SoftBodyId id_of_slot(std::uint32_t slot) const { return {slot, slots_.generation(slot)}; }
 
     SoftBody& body(SoftBodyId id);
     const SoftBody& body(SoftBodyId id) const;
@@ -105,10 +106,7 @@ private:
 
     SoftSettings settings_;
     std::vector<SoftBody> bodies_;
-    std::vector<std::uint32_t> generation_;
-    std::vector<bool> alive_;
-    std::vector<std::uint32_t> free_slots_;
-    std::size_t alive_count_ = 0;
+    Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
     std::vector<Collider> colliders_;
     std::vector<ParticleContact> contacts_;
     std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
