@@ -1,4 +1,5 @@
-// Explicit and semi-implicit (symplectic) Euler for mass-spring bodies (THEORY §4; seed 001 ch.3).
+// Explicit and semi-implicit (symplectic) Euler for mass-spring bodies (seed 001 ch.3;
+// equations and their stability analysis: docs/theory.md#euler).
 //
 //   explicit:       x_{n+1} = x_n + h v_n,        v_{n+1} = (v_n + h a_n) / (1 + h drag)
 //   semi-implicit:  v_{n+1} = (v_n + h a_n) / (1 + h drag),   x_{n+1} = x_n + h v_{n+1}

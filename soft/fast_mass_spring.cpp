@@ -1,4 +1,5 @@
-// Fast mass-spring (Liu, Bargteil, O'Brien, Kavan 2013; seed 002; THEORY §4): implicit Euler written as
+// Fast mass-spring (Liu, Bargteil, O'Brien, Kavan 2013; seed 002; docs/theory.md#fast-mass-spring):
+// implicit Euler written as
 //     x_{n+1} = argmin_x  1/(2h²) (x - y)ᵀ M' (x - y) + Σ_j ½ k_j (|x_a - x_b| - L_j)²,
 //     y = x_n + h (v_n + h M⁻¹ f_ext) / (1 + h drag),   M' = (1 + h drag) M,
 // with each spring's energy rewritten as min over a direction p_j, |p_j| = L_j, of ½ k_j |x_a - x_b - p_j|².

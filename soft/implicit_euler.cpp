@@ -1,7 +1,8 @@
 // Implicit Euler for mass-spring bodies: one Newton step per frame (Baraff & Witkin 1998), the linear
 // system solved by block-Jacobi preconditioned conjugate gradient, matrix-free over the links (Volino &
 // Magnenat-Thalmann, seed 003 §2.3: the products are accumulated link by link, no matrix is built).
-// THEORY §4.
+// Equations: Baraff & Witkin 1998, Volino & Magnenat-Thalmann 2000; docs/theory.md#euler and
+// docs/theory.md#mass-spring-forces.
 //
 // The λ blend (b.def.implicit_lambda, written λ below). We use the one-step "θ-method" form, linearised
 // once at state n:

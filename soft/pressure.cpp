@@ -1,6 +1,6 @@
-// Matyka's pressure soft body (Matyka 2004; THEORY §4): a closed triangle surface holding an ideal
-// gas, P V = P_c, so the pressure follows the current volume and each face is pushed outward by
-// F = P A n̂ = (P_c / V) A n̂, a third of it on each of its vertices.
+// Matyka's pressure soft body (Matyka & Ollila 2003, Matyka 2004; docs/theory.md#pressure): a closed
+// triangle surface holding an ideal gas, P V = P_c, so the pressure follows the current volume and each
+// face is pushed outward by F = P A n̂ = (P_c / V) A n̂, a third of it on each of its vertices.
 #include <algorithm>
 
 #include "soft/soft_integrators.hpp"
@@ -39,7 +39,7 @@ void add_pressure_forces(const SoftBody& b, const std::vector<Vec3>& x, std::vec
     const Real pc = b.def.pressure;
     if (pc == 0 || b.triangles.empty()) return;
     Real volume = enclosed_volume(b.triangles, x);
-    if (!(volume > 0)) return;  // turned inside out or flat: no gas to push with (THEORY §4 needs V > 0)
+    if (!(volume > 0)) return;  // turned inside out or flat: no gas to push with (P = P_c / V needs V > 0)
     // P = P_c / V grows without bound as V -> 0; a body crushed to 1% of its rest volume would get 100
     // times its rest pressure in one step and explode under an explicit force. Capping the pressure there
     // changes nothing in any state a simulation should reach and keeps a crushed body finite.

@@ -4,7 +4,8 @@
 // One SoftBody holds its particles, its links (springs for mass-spring methods, distance constraints for
 // Verlet), its surface triangles (pressure, rendering), pins, attachments to rigid bodies and long-range
 // attachments. The method decides how links act; the same builder output runs under every method, so
-// methods can be compared on one scene. Equations: ../shared/THEORY.md §3-§4.
+// methods can be compared on one scene. Equations: Jakobsen 2003 (Verlet), Baraff & Witkin 1998 (springs,
+// implicit Euler), Liu et al. 2013 (fast mass-spring), Matyka & Ollila 2003 (pressure); docs/theory.md.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,7 @@
 // Time integration of one soft body over one step, without contacts (the soft system projects contacts
-// afterwards, soft/particle_collision.hpp). Equations: ../shared/THEORY.md §3-§4.
+// afterwards, soft/particle_collision.hpp). Equations: Jakobsen 2003, Baraff & Witkin 1998, Liu et al.
+// 2013, Matyka & Ollila 2003; docs/theory.md (#verlet, #mass-spring-forces, #euler, #fast-mass-spring,
+// #pressure).
 //
 // Contract shared by every step_* function:
 //  - on entry p.x, p.v hold state n; p.f holds the external forces of this step (N); b.gravity is the
@@ -17,7 +19,8 @@ namespace sinew {
 
 class ParticleCollision;
 
-/// Adds the damped Hooke forces of every link (THEORY §4) at positions x, velocities v to f.
+/// Adds the damped Hooke forces of every link (Baraff & Witkin 1998; docs/theory.md#mass-spring-forces) at
+/// positions x, velocities v to f.
 void add_spring_forces(const SoftBody& b, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                        std::vector<Vec3>& f);
 /// Adds Matyka's pressure force (P_c / V) A n̂ of each surface triangle, split over its 3 vertices, at

@@ -1,4 +1,5 @@
-// Damped Hooke springs along the links (THEORY §4; Baraff & Witkin 1998 §"damped springs"):
+// Damped Hooke springs along the links (Baraff & Witkin 1998 §"damped springs";
+// docs/theory.md#mass-spring-forces):
 //   Δx = x_a - x_b, x̂ = Δx/|Δx|,
 //   f_a = -[ k_s (|Δx| - L) + k_d (Δv · x̂) ] x̂,   f_b = -f_a.
 // The damping acts along the link only, so a spring never resists rigid rotation of its two ends, and the

@@ -1,6 +1,6 @@
 // Jakobsen 2003 ("Advanced Character Physics"): position Verlet with drag, then Gauss-Seidel relaxation of
 // the links as distance constraints, each sweep followed by collision projection and long-range
-// attachments. THEORY §3.
+// attachments. Equations: Jakobsen 2003; docs/theory.md#verlet.
 //
 // Verlet's x_{n+1} = x_n + (1 - k_d)(x_n - x_{n-1}) + a h^2 is written with the velocity field the other
 // integrators share, v_n = (x_n - x_{n-1}) / h, so bodies can switch method, be woken, or get velocities
@@ -22,7 +22,7 @@ namespace {
 // sweep, after the neighbours moved, usually separates the particles). 1e-9 m is far below any rest length.
 constexpr Real kMinLinkLength = Real(1e-9);
 
-// One relaxation sweep over the links in order (Gauss-Seidel). THEORY §3:
+// One relaxation sweep over the links in order (Gauss-Seidel; Jakobsen 2003, docs/theory.md#verlet):
 //   d = x_b - x_a, s = k (|d| - L)/|d|, x_a += s w_a/(w_a + w_b) d, x_b -= s w_b/(w_a + w_b) d,
 // with L the rest length for an equality link, or the violated bound for an inequality link (which acts
 // only outside [min_length, max_length]: Jakobsen's angle limits).

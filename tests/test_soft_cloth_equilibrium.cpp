@@ -1,4 +1,5 @@
-// A hanging cloth reaches static equilibrium under the implicit integrators (THEORY §4): a 1 m square of
+// A hanging cloth reaches static equilibrium under the implicit integrators (Baraff & Witkin 1998, Liu et
+// al. 2013; docs/theory.md#euler and #fast-mass-spring): a 1 m square of
 // 10 x 10 nodes with structural and shear springs, pinned at its two top corners, under gravity. After
 // settling, the forces balance at every free node, and implicit Euler (Baraff-Witkin) and fast mass-spring
 // (Liu 2013) both agree with the static equilibrium f(x) = 0 solved by Newton's method in this file.

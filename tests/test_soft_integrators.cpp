@@ -10,7 +10,9 @@
 // plus momentum conservation of a free spring, fast mass-spring converging to the implicit Euler step (and
 // factoring its matrix only when it must), the drag shared by all four integrators, Volino's isotropic
 // blend damping a whirling spring, and implicit Euler on a crumpled cloth whose exact Jacobian is
-// indefinite. THEORY §4. Bodies are built by hand (no builder), no gravity unless stated.
+// indefinite. Equations: Baraff & Witkin 1998, Volino & Magnenat-Thalmann 2000, Liu et al. 2013;
+// docs/theory.md#euler, #mass-spring-forces, #fast-mass-spring. Bodies are built by hand (no builder), no
+// gravity unless stated.
 #include <catch2/catch.hpp>
 
 #include <Eigen/Dense>

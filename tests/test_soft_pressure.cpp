@@ -1,6 +1,7 @@
-// Matyka pressure soft bodies (soft/pressure.cpp; Matyka 2004, THEORY §4): the divergence-theorem
-// volume, the pressure force F = (P_c / V) A n̂ per face against its closed-surface identities (no net
-// force, no net torque, the gradient of P_c ln V), and inflated icospheres simulated by the soft system:
+// Matyka pressure soft bodies (soft/pressure.cpp; Matyka & Ollila 2003, Matyka 2004; equations in
+// docs/theory.md#pressure): the divergence-theorem volume, the pressure force F = (P_c / V) A n̂ per face
+// against its closed-surface identities (no net force, no net torque, the gradient of P_c ln V), and
+// inflated icospheres simulated by the soft system:
 // the free ball's equilibrium size derived from the spring/pressure balance, a ball at rest on a ground
 // plane, and an isolated ball in zero gravity.
 #include <catch2/catch.hpp>

@@ -160,8 +160,8 @@ SoftBodyDef build_body(const ClothScene& s, const SinewSetting& v) {
 
 // The largest spring stiffness semi-implicit Euler is guaranteed stable with at this step. Gershgorin's
 // theorem bounds the largest eigenvalue of M^-1 K by max_i 2 k deg_i / m_i (each spring's Hessian block
-// has norm <= k, also when stretched), and the method is stable iff omega h < 2 (THEORY §4), i.e.
-// omega^2 < 4 / h^2. We take 90 % of that: k = 0.9 * min_i 2 m_i / (deg_i h^2).
+// has norm <= k, also when stretched), and the method is stable iff omega h < 2 (docs/theory.md#euler),
+// i.e. omega^2 < 4 / h^2. We take 90 % of that: k = 0.9 * min_i 2 m_i / (deg_i h^2).
 double semi_implicit_stiffness(const ClothScene& s) {
     SoftBodyDef def = build_body(s, SinewSetting{"", "", SoftMethod::SemiImplicitEuler, 1, false, 1});
     std::vector<int> degree(def.positions.size(), 0);
