@@ -71,7 +71,7 @@ public:
     bool detects_at_candidate_poses() const override { return true; }
     void before_integrate_velocities(RigidSystem& sys, Real h) override;
     void solve_velocities(RigidSystem& sys, Real h) override;
-    void correct_positions(RigidSystem& sys, Real h) override;
+    void finish_step(RigidSystem& sys, Real h) override;
 
 private:
     void gather(RigidSystem& sys, Real h);
@@ -334,7 +334,7 @@ void NewtonImpulseSolver::propagate_shock(RigidSystem& sys, Real h) {
     }
 }
 
-void NewtonImpulseSolver::correct_positions(RigidSystem& sys, Real h) {
+void NewtonImpulseSolver::finish_step(RigidSystem& sys, Real h) {
     // Penetration projection (Guendelman 2003): after integration, move bodies apart by a fraction of
     // the depth beyond the slop, along the normal, split by inverse mass. With shock propagation the
     // lower body is frozen so projection never pushes a stack into the ground, and the contacts go from

@@ -14,8 +14,11 @@ public:
     /// Solves contacts (and later joints) for one step of h: writes new velocities into the system's
     /// state, accumulated impulses back into its contacts, and pseudo-velocities for position correction.
     virtual void solve_velocities(RigidSystem& sys, Real h) = 0;
-    /// Applies position corrections computed by solve_velocities (split impulses) after integration.
-    virtual void correct_positions(RigidSystem& sys, Real h) = 0;
+    /// The solver's part of IntegratePositions, after the system integrated positions (if the solver
+    /// does not integrate itself) and told the outside rows: split impulses' pseudo-velocity correction,
+    /// Guendelman's penetration projection, or the soft step's last sub-step (positions, relax pass,
+    /// restitution) and its impulses stored back into the manifolds.
+    virtual void finish_step(RigidSystem& sys, Real h) = 0;
     /// Runs at the start of IntegrateVelocities, before forces (Guendelman's collision passes).
     virtual void before_integrate_velocities(RigidSystem&, Real) {}
     /// Whether DetectCollisions should place bodies at their candidate poses x + h v (Guendelman) rather

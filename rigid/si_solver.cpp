@@ -50,7 +50,7 @@ struct ContactConstraint {
 class SequentialImpulseSolver final : public RigidSolver {
 public:
     void solve_velocities(RigidSystem& sys, Real h) override;
-    void correct_positions(RigidSystem& sys, Real h) override;
+    void finish_step(RigidSystem& sys, Real h) override;
 
 private:
     void prepare(RigidSystem& sys, Real h);
@@ -243,7 +243,7 @@ void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     store_impulses(sys);
 }
 
-void SequentialImpulseSolver::correct_positions(RigidSystem& sys, Real h) {
+void SequentialImpulseSolver::finish_step(RigidSystem& sys, Real h) {
     if (!have_pseudo_) return;
     RigidSystem::State& st = sys.state();
     for (std::size_t i = 0; i < bodies_.size() && i < st.x.size(); ++i) {

@@ -144,7 +144,7 @@ public:
     bool integrates_itself() const override { return true; }
     Real unintegrated_time_after_solve(Real) const override { return h_sub_; }
     void solve_velocities(RigidSystem& sys, Real h) override;
-    void correct_positions(RigidSystem& sys, Real h) override;
+    void finish_step(RigidSystem& sys, Real h) override;
 
 private:
     void colour(RigidSystem& sys);
@@ -167,7 +167,7 @@ private:
     BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
     void bodies_to_state(RigidSystem::State& st) const;
     void bodies_from_state(const RigidSystem::State& st);
-    // The last sub-step is finished in correct_positions(), after the pipeline's coupling hooks.
+    // The last sub-step is finished in finish_step(), after the pipeline's coupling hooks.
     void integrate_and_relax(RigidSystem& sys);
 
     ConstraintColouring colouring_;
@@ -403,7 +403,7 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
     solve(Real(1) / h_sub_, sys.settings().contact_push_velocity, false);  // relax: remove the bias velocity
 }
 
-void SoftStepSolver::correct_positions(RigidSystem& sys, Real) {
+void SoftStepSolver::finish_step(RigidSystem& sys, Real) {
     if (!pending_) return;
     pending_ = false;
     RigidSystem::State& st = sys.state();

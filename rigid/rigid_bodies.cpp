@@ -1,0 +1,251 @@
+// The rigid system's body store: creating, validating and destroying bodies in slots, and reading and
+// changing their state by handle.
+#include "rigid/rigid_system.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/core/format.hpp"
+#include "engine/core/mass_properties.hpp"
+#include "rigid/joint_set.hpp"
+
+namespace sinew {
+
+// ---- bodies ---------------------------------------------------------------------------------------
+
+BodyId RigidSystem::create_body(const BodyDef& def) {
+    // Validate everything before touching any array, so a bad definition changes nothing.
+    auto bad = [](const std::string& why) { throw RigidError("body definition: " + why); };
+    if (!is_finite(def.pose.p)) bad("position must be finite");
+    if (!is_finite(def.pose.q) || def.pose.q.norm() < Real(1e-6)) bad("rotation must be a finite non-zero quaternion");
+    if (!is_finite(def.linear_velocity) || !is_finite(def.angular_velocity)) bad("velocities must be finite");
+    if (!is_finite(def.mass) || def.mass < 0) bad("mass must be finite and >= 0 (0 = from density), got " + to_text(def.mass));
+    const Material& m = def.material;
+    if (!is_finite(m.friction) || m.friction < 0) bad("friction must be finite and >= 0, got " + to_text(m.friction));
+    if (!(m.restitution >= 0 && m.restitution <= 1)) bad("restitution must be in [0, 1], got " + to_text(m.restitution));
+    if (!is_finite(def.linear_damping) || def.linear_damping < 0 || !is_finite(def.angular_damping) ||
+        def.angular_damping < 0)
+        bad("damping must be finite and >= 0");
+    if (!is_finite(def.gravity_scale)) bad("gravity_scale must be finite");
+    if (def.type != BodyType::Static && !def.shape.can_be_dynamic())
+        bad(std::string("a ") + shape_type_name(def.shape.type) + " can only belong to a static body");
+
+    // A rotation that is unit to rounding is kept as given, so that a saved world's comes back bit for
+    // bit (normalising it again may move it by an ulp).
+    const bool unit = std::abs(def.pose.q.squaredNorm() - 1) <= 4 * kEpsilon;
+    Transform pose{def.pose.p, unit ? def.pose.q : Quat(def.pose.q.normalized())};
+    MassProperties mp;
+    if (def.type == BodyType::Dynamic) {
+        try {
+            mp = def.mass > 0 ? mass_properties_for_mass(def.shape, def.mass)
+                              : compute_mass_properties(def.shape, m.density);
+        } catch (const ShapeError& e) {
+            bad(e.what());
+        }
+        if (!(mp.mass > 0) || !is_finite(mp.mass)) bad("mass must be > 0, got " + to_text(mp.mass));
+    }
+    Aabb box = def.shape.bounds(pose);
+    if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");
+
+    const Slots::Acquired got = slots_.acquire();
+    const std::uint32_t slot = got.index;
+    if (got.fresh) {
+        type_.emplace_back();
+        shape_.emplace_back();
+        material_.emplace_back();
+        mass_.push_back(0);
+        body_inv_mass_.push_back(0);
+        inv_inertia_local_.emplace_back();
+        local_com_.emplace_back();
+        linear_damping_.push_back(0);
+        angular_damping_.push_back(0);
+        gravity_scale_.push_back(1);
+        allow_sleep_.push_back(true);
+        awake_.push_back(true);
+        sleep_timer_.push_back(0);
+        user_data_.push_back(0);
+        proxy_.push_back(DynamicTree::kNull);
+        island_.push_back(0);
+        state_.x.emplace_back();
+        state_.q.emplace_back();
+        state_.v.emplace_back();
+        state_.w.emplace_back();
+        state_.inv_mass.push_back(0);
+        state_.inv_inertia_world.emplace_back();
+        state_.force.emplace_back();
+        state_.torque.emplace_back();
+    }
+    const bool dynamic = def.type == BodyType::Dynamic;
+    type_[slot] = def.type;
+    shape_[slot] = def.shape;
+    material_[slot] = def.material;
+    mass_[slot] = dynamic ? mp.mass : 0;
+    body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
+    inv_inertia_local_[slot] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
+    local_com_[slot] = dynamic ? mp.center : Vec3::Zero();
+    linear_damping_[slot] = def.linear_damping;
+    angular_damping_[slot] = def.angular_damping;
+    gravity_scale_[slot] = def.gravity_scale;
+    allow_sleep_[slot] = def.allow_sleep;
+    awake_[slot] = def.type != BodyType::Static;
+    sleep_timer_[slot] = 0;
+    user_data_[slot] = def.user_data;
+    island_[slot] = slot;
+    state_.q[slot] = pose.q;
+    state_.x[slot] = pose.apply(local_com_[slot]);
+    state_.v[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.linear_velocity;
+    state_.w[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.angular_velocity;
+    state_.inv_mass[slot] = body_inv_mass_[slot];
+    Mat3 r = pose.q.toRotationMatrix();
+    state_.inv_inertia_world[slot] = r * inv_inertia_local_[slot] * r.transpose();
+    state_.force[slot].setZero();
+    state_.torque[slot].setZero();
+    proxy_[slot] = tree_.create(box, slot, settings_.contact_margin);
+    return {slot, got.generation};
+}
+
+void RigidSystem::check(BodyId id, const char* where) const {
+    if (id.is_null()) throw RigidError(std::string(where) + ": body id is null");
+    if (!slots_.valid(id.index, id.generation))
+        throw RigidError(std::string(where) + ": stale or unknown body id (index " + std::to_string(id.index) +
+                         ", generation " + std::to_string(id.generation) + ")");
+}
+
+bool RigidSystem::valid(BodyId id) const { return slots_.valid(id.index, id.generation); }
+
+void RigidSystem::destroy_body(BodyId id) {
+    check(id, "destroy_body");
+    std::uint32_t s = id.index;
+    // Bodies that rested on this one must not be left floating asleep.
+    for (const ContactManifold& c : contacts_)
+        if (c.body_a == s || c.body_b == s) {
+            wake_island(c.body_a);
+            wake_island(c.body_b);
+        }
+    joints_->destroy_attached(s);
+    tree_.destroy(proxy_[s]);
+    proxy_[s] = DynamicTree::kNull;
+    shape_[s] = Shape{};
+    state_.inv_mass[s] = 0;
+    state_.v[s].setZero();
+    state_.w[s].setZero();
+    auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
+    contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
+    prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+    slots_.release(s);
+}
+
+std::vector<BodyId> RigidSystem::bodies() const {
+    std::vector<BodyId> out;
+    out.reserve(slots_.count());
+    for (std::uint32_t i = 0; i < slots_.size(); ++i)
+        if (slots_.alive(i)) out.push_back({i, slots_.generation(i)});
+    return out;
+}
+
+Transform RigidSystem::origin_transform(std::uint32_t s) const {
+    return {state_.x[s] - state_.q[s] * local_com_[s], state_.q[s]};
+}
+
+Transform RigidSystem::predicted_transform(std::uint32_t s, Real t) const {
+    const Quat q = integrate_rotation(state_.q[s], state_.w[s], t);
+    return {state_.x[s] + t * state_.v[s] - q * local_com_[s], q};
+}
+
+Transform RigidSystem::transform(BodyId id) const {
+    check(id, "transform");
+    return origin_transform(id.index);
+}
+
+void RigidSystem::set_transform(BodyId id, const Transform& xf) {
+    check(id, "set_transform");
+    if (!is_finite(xf.p) || !is_finite(xf.q) || xf.q.norm() < Real(1e-6))
+        throw RigidError("set_transform: transform must be finite with a non-zero quaternion");
+    std::uint32_t s = id.index;
+    state_.q[s] = xf.q.normalized();
+    state_.x[s] = xf.p + state_.q[s] * local_com_[s];
+    tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
+    wake_island(s);
+}
+
+Vec3 RigidSystem::linear_velocity(BodyId id) const {
+    check(id, "linear_velocity");
+    return state_.v[id.index];
+}
+
+Vec3 RigidSystem::angular_velocity(BodyId id) const {
+    check(id, "angular_velocity");
+    return state_.w[id.index];
+}
+
+void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
+    check(id, "set_velocity");
+    if (!is_finite(v) || !is_finite(w)) throw RigidError("set_velocity: velocities must be finite");
+    if (type_[id.index] == BodyType::Static) return;
+    state_.v[id.index] = v;
+    state_.w[id.index] = w;
+    wake_island(id.index);
+}
+
+void RigidSystem::apply_force(BodyId id, const Vec3& f, const Vec3& p) {
+    check(id, "apply_force");
+    if (!is_finite(f) || !is_finite(p)) throw RigidError("apply_force: force and point must be finite");
+    std::uint32_t s = id.index;
+    if (type_[s] != BodyType::Dynamic) return;
+    state_.force[s] += f;
+    state_.torque[s] += (p - state_.x[s]).cross(f);
+    wake_island(s);
+}
+
+void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
+    check(id, "apply_impulse");
+    if (!is_finite(j) || !is_finite(p)) throw RigidError("apply_impulse: impulse and point must be finite");
+    std::uint32_t s = id.index;
+    if (type_[s] != BodyType::Dynamic) return;
+    wake_island(s);
+    state_.v[s] += body_inv_mass_[s] * j;
+    Mat3 r = state_.q[s].toRotationMatrix();
+    state_.w[s] += r * inv_inertia_local_[s] * r.transpose() * (p - state_.x[s]).cross(j);
+}
+
+BodyType RigidSystem::type(BodyId id) const { check(id, "type"); return type_[id.index]; }
+Real RigidSystem::mass(BodyId id) const { check(id, "mass"); return mass_[id.index]; }
+Real RigidSystem::linear_damping(BodyId id) const { check(id, "linear_damping"); return linear_damping_[id.index]; }
+Real RigidSystem::angular_damping(BodyId id) const { check(id, "angular_damping"); return angular_damping_[id.index]; }
+Real RigidSystem::gravity_scale(BodyId id) const { check(id, "gravity_scale"); return gravity_scale_[id.index]; }
+bool RigidSystem::allow_sleep(BodyId id) const { check(id, "allow_sleep"); return allow_sleep_[id.index]; }
+const Shape& RigidSystem::shape(BodyId id) const { check(id, "shape"); return shape_[id.index]; }
+const Material& RigidSystem::material(BodyId id) const { check(id, "material"); return material_[id.index]; }
+void RigidSystem::set_material(BodyId id, const Material& m) {
+    check(id, "set_material");
+    if (!(std::isfinite(m.friction) && m.friction >= 0))
+        throw RigidError("set_material: friction must be finite and >= 0, got " + to_text(m.friction));
+    if (!(m.restitution >= 0 && m.restitution <= 1))
+        throw RigidError("set_material: restitution must be in [0, 1], got " + to_text(m.restitution));
+    material_[id.index].friction = m.friction;
+    material_[id.index].restitution = m.restitution;
+}
+bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
+void RigidSystem::wake(BodyId id) { check(id, "wake"); wake_island(id.index); }
+std::uint64_t RigidSystem::user_data(BodyId id) const { check(id, "user_data"); return user_data_[id.index]; }
+
+double RigidSystem::kinetic_energy() const {
+    double e = 0;
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
+        Mat3 r = state_.q[s].toRotationMatrix();
+        Mat3 inertia = r * inv_inertia_local_[s].inverse() * r.transpose();
+        e += 0.5 * mass_[s] * state_.v[s].squaredNorm() + 0.5 * state_.w[s].dot(inertia * state_.w[s]);
+    }
+    return e;
+}
+
+bool RigidSystem::all_finite() const {
+    for (std::uint32_t s = 0; s < slots_.size(); ++s)
+        if (slots_.alive(s) && (!is_finite(state_.x[s]) || !is_finite(state_.q[s]) || !is_finite(state_.v[s]) ||
+                          !is_finite(state_.w[s])))
+            return false;
+    return true;
+}
+
+}  // namespace sinew

@@ -1,0 +1,194 @@
+// Contact detection for the rigid system: broad phase (refit, persistent pairs), each body placed once,
+// narrow phase or the body-pair manifold cache, and warm-start impulses matched from the last step.
+#include "rigid/rigid_system.hpp"
+
+#include <algorithm>
+
+#include "rigid/joint_set.hpp"
+#include "rigid/rigid_solver.hpp"
+
+namespace sinew {
+
+namespace {
+std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; }
+bool manifold_less(const ContactManifold& x, const ContactManifold& y) {
+    std::uint64_t kx = pair_key(x.body_a, x.body_b), ky = pair_key(y.body_a, y.body_b);
+    return kx != ky ? kx < ky : x.manifold.sub_key < y.manifold.sub_key;
+}
+}  // namespace
+
+void RigidSystem::detect_collisions(Real h) {
+    const Real margin = settings_.contact_margin;
+    // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
+        tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), h * state_.v[s], margin);
+    }
+    // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
+    // resting scene keeps last step's sorted list (as Box2D keeps its pair set between moves).
+    if (tree_.revision() != pairs_tree_revision_ || joints_->filter_revision() != pairs_filter_revision_) {
+        pairs_tree_revision_ = tree_.revision();
+        pairs_filter_revision_ = joints_->filter_revision();
+        candidate_pairs_.clear();
+        tree_.all_pairs(candidate_pairs_);
+        pair_keys_.clear();
+        for (const auto& [pa, pb] : candidate_pairs_) {
+            std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
+            if (a > b) std::swap(a, b);
+            if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
+            if (joints_->filters_pair(a, b)) continue;
+            pair_keys_.push_back(pair_key(a, b));
+        }
+        std::sort(pair_keys_.begin(), pair_keys_.end());
+    }
+
+    // Each body's detection pose once per step (a body is in several pairs), with its rotation as a
+    // matrix: carrying a cached manifold's points costs two rotations per point.
+    const std::size_t slots = slots_.size();
+    detect_xf_.resize(slots);
+    detect_rot_.resize(slots);
+    for (std::uint32_t s = 0; s < slots; ++s) {
+        if (!slots_.alive(s)) continue;
+        detect_xf_[s] = detection_transform(s, h);
+        detect_rot_[s] = detect_xf_[s].q.toRotationMatrix();
+    }
+
+    std::swap(prev_contacts_, contacts_);
+    contacts_.clear();
+    std::size_t prev_i = 0;
+    for (std::uint64_t key : pair_keys_) {
+        std::uint32_t a = std::uint32_t(key >> 32), b = std::uint32_t(key & 0xFFFFFFFFu);
+        // Advance the merge-join cursor to this pair's cached manifolds (both lists sorted by key).
+        while (prev_i < prev_contacts_.size() && pair_key(prev_contacts_[prev_i].body_a, prev_contacts_[prev_i].body_b) < key)
+            ++prev_i;
+        std::size_t prev_end = prev_i;
+        while (prev_end < prev_contacts_.size() && pair_key(prev_contacts_[prev_end].body_a, prev_contacts_[prev_end].body_b) == key)
+            ++prev_end;
+        const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
+        const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
+        if (asleep_a && asleep_b) {
+            // Sleeping pair (seed 001 ch.2): not tested, but its contacts are kept so the island stays
+            // connected and wakes as a whole.
+            for (std::size_t i = prev_i; i < prev_end; ++i) contacts_.push_back(prev_contacts_[i]);
+            continue;
+        }
+        const Transform& xa = detect_xf_[a];
+        const Transform& xb = detect_xf_[b];
+        const Mat3& rot_a = detect_rot_[a];
+        const Mat3& rot_b = detect_rot_[b];
+        const Transform relative = xa.inverse() * xb;
+        if (prev_end > prev_i && can_reuse(prev_contacts_[prev_i].relative, relative)) {
+            // Body-pair cache (as Jolt does): the pair moved as one within 1 mm and 0.5 degrees since
+            // its manifold was computed, so the cached points are carried with the bodies instead of
+            // running the narrow phase again. Points stay attached to A and B; the depth follows the
+            // bodies' relative motion along the normal. Warm-start impulses are kept as they are.
+            for (std::size_t i = prev_i; i < prev_end; ++i) {
+                ContactManifold c = prev_contacts_[i];
+                Manifold& m = c.manifold;
+                m.normal = rot_a * c.normal_local_a;
+                for (int k = 0; k < m.count; ++k) {
+                    ContactPoint& p = m.points[k];
+                    const Vec3 pa = rot_a * p.local_a + xa.p, pb = rot_b * p.local_b + xb.p;
+                    p.position = Real(0.5) * (pa + pb);
+                    p.depth = c.detected_depth[k] - (pb - pa).dot(m.normal);
+                    if (!settings_.warm_starting) p.normal_impulse = p.tangent_impulse[0] = p.tangent_impulse[1] = 0;
+                }
+                contacts_.push_back(c);
+            }
+        } else {
+            scratch_.clear();
+            // Speculative margin grown by how far the pair can close this step, so a fast body gets its
+            // contact before it penetrates (the solvers let it close exactly the gap).
+            const Real closing = h * (state_.v[a].norm() + state_.v[b].norm());
+            collide(shape_[a], xa, shape_[b], xb, margin + closing, scratch_);
+            if (scratch_.empty()) continue;
+            const std::size_t first = contacts_.size();
+            add_fresh_manifolds(a, b, xa, xb, relative, prev_i, prev_end);
+            // Pairs come in key order; collide() may return a pair's sub_keys unordered, so only this
+            // pair's few manifolds need sorting to keep the list ordered for the next merge join.
+            if (contacts_.size() - first > 1)
+                std::sort(contacts_.begin() + std::ptrdiff_t(first), contacts_.end(), manifold_less);
+        }
+        // A sleeping body touched by an awake one wakes with its whole island.
+        if (asleep_a != asleep_b) wake_island(asleep_a ? a : b);
+    }
+}
+
+Transform RigidSystem::detection_transform(std::uint32_t s, Real h) const {
+    if (!solver_->detects_at_candidate_poses() || type_[s] == BodyType::Static || !awake_[s])
+        return origin_transform(s);
+    // Guendelman 2003: contacts are found where the bodies would be after a step with the current
+    // velocities, so the impulses act before the penetration happens.
+    Quat q = integrate_rotation(state_.q[s], state_.w[s], h);
+    Vec3 x = state_.x[s] + h * state_.v[s];
+    return {x - q * local_com_[s], q};
+}
+
+bool RigidSystem::can_reuse(const Transform& cached, const Transform& now) const {
+    const Real max_move = Real(1e-3);         // m
+    const Real min_cos_half = Real(0.9999905); // cos(0.25 degree): 0.5 degree of relative rotation
+    return (now.p - cached.p).squaredNorm() < max_move * max_move && std::abs(now.q.dot(cached.q)) > min_cos_half;
+}
+
+void RigidSystem::add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Transform& xa, const Transform& xb,
+                                  const Transform& relative, std::size_t prev_i, std::size_t prev_end) {
+    const Real match_dist2 = (2 * settings_.contact_margin) * (2 * settings_.contact_margin);
+    Real friction = std::sqrt(material_[a].friction * material_[b].friction);
+    Real restitution = std::max(material_[a].restitution, material_[b].restitution);
+    for (Manifold& m : scratch_) {
+        for (int k = 0; k < m.count; ++k) {
+            ContactPoint& p = m.points[k];
+            p.local_a = xa.apply_inverse(p.position);
+            p.local_b = xb.apply_inverse(p.position);
+        }
+        // Warm starting: carry impulses from the cached manifold with the same sub_key, matching
+        // points by feature id, else by proximity in A's local frame (seed 001 ch.5).
+        if (settings_.warm_starting) {
+            for (std::size_t i = prev_i; i < prev_end; ++i) {
+                const Manifold& old = prev_contacts_[i].manifold;
+                if (old.sub_key != m.sub_key) continue;
+                for (int k = 0; k < m.count; ++k) {
+                    ContactPoint& p = m.points[k];
+                    int best = -1;
+                    Real best_d2 = match_dist2;
+                    for (int j = 0; j < old.count; ++j) {
+                        if (old.points[j].feature_id == p.feature_id) {
+                            best = j;
+                            break;
+                        }
+                        Real d2 = (old.points[j].local_a - p.local_a).squaredNorm();
+                        if (d2 < best_d2) {
+                            best_d2 = d2;
+                            best = j;
+                        }
+                    }
+                    if (best >= 0) {
+                        p.normal_impulse = old.points[best].normal_impulse;
+                        p.tangent_impulse[0] = old.points[best].tangent_impulse[0];
+                        p.tangent_impulse[1] = old.points[best].tangent_impulse[1];
+                    }
+                }
+                break;
+            }
+        }
+        ContactManifold c;
+        c.body_a = a;
+        c.body_b = b;
+        c.friction = friction;
+        c.restitution = restitution;
+        c.manifold = m;
+        c.relative = relative;
+        c.normal_local_a = xa.q.conjugate() * m.normal;
+        for (int k = 0; k < m.count; ++k) c.detected_depth[k] = m.points[k].depth;
+        contacts_.push_back(c);
+    }
+}
+
+Real RigidSystem::max_penetration() const {
+    Real d = 0;
+    for (const ContactManifold& c : contacts_)
+        for (int i = 0; i < c.manifold.count; ++i) d = std::max(d, c.manifold.points[i].depth);
+    return d;
+}
+
+}  // namespace sinew
