@@ -59,15 +59,11 @@ void ImplicitEulerCache::resize(std::size_t n, std::size_t m) {
         force.assign(n, Vec3::Zero());
         rhs.assign(n, Vec3::Zero());
         dv.assign(n, Vec3::Zero());
-        r.assign(n, Vec3::Zero());
-        z.assign(n, Vec3::Zero());
-        d.assign(n, Vec3::Zero());
-        q.assign(n, Vec3::Zero());
         mass.assign(n, Real(0));
-        block_inv.assign(6 * n, Real(0));
         pinned.clear();
         pinned.reserve(n);
     }
+    cg.resize(n);
     if (links.size() != m) links.assign(m, LinkBlock{});
 }
 
@@ -75,50 +71,18 @@ namespace {
 
 constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
 
-// Per-particle products in Real, summed over particles in double: the long sums are what lose precision.
-inline double dot(const Vec3& a, const Vec3& b) { return double(a.dot(b)); }
-
-// One CG product, fused with the search direction update: d = z + β d, then q = A d with
-// A = M (1 + hλ drag) + Σ_j S_j (d_a - d_b) scattered to a (+) and b (-), and the rows of pinned particles
-// zeroed (the filter). Returns dᵀ A d. Pinned entries of z are 0, so d stays 0 there.
-double direction_and_product(ImplicitEulerCache& c, Real beta) {
-    const std::size_t n = c.d.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        const Vec3 di = c.z[i] + beta * c.d[i];
-        c.d[i] = di;
-        c.q[i] = c.mass[i] * di;
-    }
+// The CG product q = A u with A = M (1 + hλ drag) + Σ_j S_j (u_a - u_b) scattered to a (+) and b (-), and
+// the rows of pinned particles zeroed (the filter).
+void system_product(const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
+    const std::size_t n = u.size();
+    for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
     for (const ImplicitEulerCache::LinkBlock& l : c.links) {
-        const Vec3 du = c.d[l.a] - c.d[l.b];
+        const Vec3 du = u[l.a] - u[l.b];
         const Vec3 s = l.iso * du + (l.aniso * l.dir.dot(du)) * l.dir;
-        c.q[l.a] += s;
-        c.q[l.b] -= s;
+        q[l.a] += s;
+        q[l.b] -= s;
     }
-    for (const std::uint32_t i : c.pinned) c.q[i].setZero();
-    double dad = 0;  // over particles rather than links: there are ~4x fewer
-    for (std::size_t i = 0; i < n; ++i) dad += dot(c.d[i], c.q[i]);
-    return dad;
-}
-
-// z = P r with P the stored symmetric inverse block (xx, yy, zz, xy, xz, yz).
-inline Vec3 precondition(const Real* B, const Vec3& r) {
-    return Vec3(B[0] * r.x() + B[3] * r.y() + B[4] * r.z(), B[3] * r.x() + B[1] * r.y() + B[5] * r.z(),
-                B[4] * r.x() + B[5] * r.y() + B[2] * r.z());
-}
-
-// Inverts the symmetric 3x3 block in place (adjugate / determinant; the blocks are positive definite:
-// mass plus positive semi-definite link blocks).
-void invert_block(Real* B) {
-    const double xx = B[0], yy = B[1], zz = B[2], xy = B[3], xz = B[4], yz = B[5];
-    const double c00 = yy * zz - yz * yz, c01 = xz * yz - xy * zz, c02 = xy * yz - xz * yy;
-    const double det = xx * c00 + xy * c01 + xz * c02;
-    const double s = 1.0 / det;
-    B[0] = Real(c00 * s);
-    B[1] = Real((xx * zz - xz * xz) * s);
-    B[2] = Real((xx * yy - xy * xy) * s);
-    B[3] = Real(c01 * s);
-    B[4] = Real(c02 * s);
-    B[5] = Real((xy * xz - xx * yz) * s);
+    for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
 }  // namespace
@@ -148,7 +112,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     for (std::size_t i = 0; i < n; ++i) {
         f[i] = p.f[i] + p.mass[i] * (b.gravity - drag * p.v[i]);
         c.rhs[i].setZero();
-        Real* B = &c.block_inv[6 * i];
+        Real* B = c.cg.block(i);
         const Real md = p.mass[i] * mass_scale;
         c.mass[i] = md;
         B[0] = B[1] = B[2] = md;
@@ -192,7 +156,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
                    szz = iso + aniso * e.z() * e.z();
         const Real sxy = aniso * e.x() * e.y(), sxz = aniso * e.x() * e.z(), syz = aniso * e.y() * e.z();
         for (const std::uint32_t i : {l.a, l.b}) {
-            Real* B = &c.block_inv[6 * i];
+            Real* B = c.cg.block(i);
             B[0] += sxx;
             B[1] += syy;
             B[2] += szz;
@@ -204,60 +168,26 @@ void step_implicit_euler(SoftBody& b, Real h) {
     if (b.def.pressure != 0) add_pressure_forces(b, p.x, f);
 
     // Right-hand side h (f_n + hλ ∂f/∂x v_n), the preconditioner, and the filter.
-    double bpb = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        Real* B = &c.block_inv[6 * i];
         if (p.inv_mass[i] == 0) {
             c.rhs[i].setZero();
-            std::fill(B, B + 6, Real(0));
+            std::fill(c.cg.block(i), c.cg.block(i) + 6, Real(0));
             continue;
         }
         c.rhs[i] = h * f[i] + h2l * c.rhs[i];
-        invert_block(B);
-        bpb += dot(c.rhs[i], precondition(B, c.rhs[i]));
     }
+    c.cg.invert_blocks();
 
-    // Preconditioned CG on A Δv = rhs, from the last step's Δv if that one converged, else from 0.
-    int it = 0;
-    double rz = 0;
-    if (bpb > 0) {
-        const bool warm = c.cg_converged;
-        if (warm) {  // q = A dv0 by the fused product with z = dv0, β = 0
-            for (std::uint32_t i : c.pinned) c.dv[i].setZero();
-            c.z = c.dv;
-            direction_and_product(c, 0);
-        }
-        for (std::size_t i = 0; i < n; ++i) {
-            if (!warm) c.dv[i].setZero();
-            c.d[i].setZero();
-            c.r[i] = warm ? Vec3(c.rhs[i] - c.q[i]) : c.rhs[i];
-            c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
-            rz += dot(c.r[i], c.z[i]);
-        }
-        const double tol2 = double(b.def.cg_tolerance) * double(b.def.cg_tolerance) * bpb;
-        const int cap = b.def.iterations;
-        Real beta = 0;
-        while (rz > tol2 && it < cap) {
-            const double dad = direction_and_product(c, beta);
-            if (!(dad > 0)) break;  // lost definiteness (cannot happen with the clamp; a guard for NaN input)
-            const Real alpha = Real(rz / dad);
-            double rz_new = 0;
-            for (std::size_t i = 0; i < n; ++i) {
-                c.dv[i] += alpha * c.d[i];
-                c.r[i] -= alpha * c.q[i];
-                c.z[i] = precondition(&c.block_inv[6 * i], c.r[i]);
-                rz_new += dot(c.r[i], c.z[i]);
-            }
-            beta = Real(rz_new / rz);
-            rz = rz_new;
-            ++it;
-        }
-    } else {
-        for (Vec3& v : c.dv) v.setZero();
-    }
-    c.cg_iterations = it;
-    c.cg_residual = bpb > 0 ? Real(std::sqrt(rz / bpb)) : Real(0);
-    c.cg_converged = c.cg_residual <= b.def.cg_tolerance;
+    // Preconditioned CG on A Δv = rhs (soft/block_cg.hpp), from the last step's Δv if that one converged,
+    // else from 0.
+    const bool warm = c.cg_converged;
+    if (warm)
+        for (std::uint32_t i : c.pinned) c.dv[i].setZero();
+    const BlockCg::Result res = c.cg.solve([&c](const std::vector<Vec3>& u, std::vector<Vec3>& q) { system_product(c, u, q); },
+                                           c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
+    c.cg_iterations = res.iterations;
+    c.cg_residual = res.residual;
+    c.cg_converged = res.converged;
 
     // State n+1.
     for (std::size_t i = 0; i < n; ++i) {

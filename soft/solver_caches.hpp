@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/core/math.hpp"
+#include "soft/block_cg.hpp"
 
 namespace sinew {
 
@@ -22,7 +23,6 @@ struct ImplicitEulerCache {
     std::vector<Vec3> force;  ///< f(x_n, v_n) + external + gravity + pressure (N)
     std::vector<Vec3> rhs;    ///< h (f_n + h λ ∂f/∂x v_n), zero at pinned particles
     std::vector<Vec3> dv;     ///< the unknown Δv; the next step starts from it if CG converged
-    std::vector<Vec3> r, z, d, q;  ///< CG residual, preconditioned residual, search direction, A d
     /// Link j's block of the system matrix, S_j = iso I + aniso dir dirᵀ
     /// (= -h²λ² ∂f_a/∂x_a - hλ ∂f_a/∂v_a): A u += S_j (u_a - u_b) at a and -S_j (u_a - u_b) at b. The
     /// ends are copied in so the CG product streams through one compact array.
@@ -34,9 +34,9 @@ struct ImplicitEulerCache {
     std::vector<LinkBlock> links;
     std::vector<Real> mass;             ///< the system's diagonal mass m (1 + hλ drag) per particle
     std::vector<std::uint32_t> pinned;  ///< particles with inverse mass 0 this step (their rows are filtered)
-    /// Block-Jacobi preconditioner: the inverse of each particle's 3x3 diagonal block, symmetric, stored
-    /// as (xx, yy, zz, xy, xz, yz); all zero for pinned particles (Baraff-Witkin's filter S).
-    std::vector<Real> block_inv;
+    /// The CG scratch and its block-Jacobi preconditioner (each particle's 3x3 diagonal block, inverted;
+    /// all zero for pinned particles: Baraff-Witkin's filter S).
+    BlockCg cg;
 
     // Statistics of the last step (benchmarks and tests read them).
     int cg_iterations = 0;      ///< CG iterations used
