@@ -78,14 +78,17 @@ void OneWayCoupling::refresh_colliders(Real h) {
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
         const SoftBody& body = soft_.slot_body(s);
-        // Reach of the body this step: its box grown by the distance its fastest particle can travel.
+        // Reach of the body this step: its box grown by the distance its fastest particle can travel. A
+        // sleeping body has no velocity or force (anything that gives it one wakes it) and a kept box, so
+        // it costs nothing per particle here.
         Real vmax2 = 0;
-        for (const Vec3& v : body.p.v) vmax2 = std::max(vmax2, v.squaredNorm());
-        // Gravity as this step will apply it (the body's own field still holds last step's).
         const Vec3 g = soft_.settings().gravity * body.def.gravity_scale;
         Real amax = g.norm();
-        for (std::size_t i = 0; i < body.p.size(); ++i)
-            if (body.p.inv_mass[i] > 0) amax = std::max(amax, g.norm() + body.p.f[i].norm() * body.p.inv_mass[i]);
+        if (body.awake) {
+            for (const Vec3& v : body.p.v) vmax2 = std::max(vmax2, v.squaredNorm());
+            for (std::size_t i = 0; i < body.p.size(); ++i)
+                if (body.p.inv_mass[i] > 0) amax = std::max(amax, g.norm() + body.p.f[i].norm() * body.p.inv_mass[i]);
+        }
         const Aabb reach = soft_.bounds(s).fattened(std::sqrt(vmax2) * h + amax * h * h);
         rigid_.query_bodies(reach, [&](std::uint32_t slot) {
             if (mark_[slot] == stamp_) return;

@@ -27,109 +27,138 @@ Aabb particle_box(const Particles& p, Real pad) {
 void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& colliders, Real h) {
     colliders_ = &colliders;
     candidates_.clear();
+    planes_.clear();
     correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
-    // Box of where the particles may be at the end of the step: current positions, padded by the
-    // furthest a particle moves in one step (speed and gravity) and by the thickness.
+    // How far a particle may get this step: its speed and the largest acceleration (gravity plus the
+    // external force per mass) over h.
     Real vmax2 = 0;
     for (const Vec3& v : b.p.v) vmax2 = std::max(vmax2, v.squaredNorm());
-    Real amax = b.gravity.norm();  // largest acceleration: gravity plus the external force per mass
+    Real amax = b.gravity.norm();
     for (std::size_t i = 0; i < b.p.size(); ++i)
         if (b.p.inv_mass[i] > 0) amax = std::max(amax, b.gravity.norm() + b.p.f[i].norm() * b.p.inv_mass[i]);
-    const Real reach = std::sqrt(vmax2) * h + amax * h * h + 2 * b.def.thickness;
-    const Aabb box = particle_box(b.p, reach);
+    const Real travel = std::sqrt(vmax2) * h + amax * h * h;
+    const Real r = b.def.thickness;
+    // A particle gets a plane against a collider if it can come within the contact distance of it.
+    const Real reach = travel + r * (1 + kContactSlop);
+    const Aabb box = particle_box(b.p, travel + 2 * r);
     for (std::size_t c = 0; c < colliders.size(); ++c)
         if (colliders[c].box.overlaps(box)) candidates_.push_back(static_cast<std::uint32_t>(c));
+    // Planes are found where the particles are predicted to end the step (Particles::x_next, written by
+    // the method's IntegrateVelocities part), where the contact pass will test them; the reach keeps a
+    // plane for particles the constraint solve moves by up to a step's travel from there.
+    const std::vector<Vec3>& at = b.p.x_next.size() == b.p.size() ? b.p.x_next : b.p.x;
+    if (found_at_.size() < colliders.size()) found_at_.resize(colliders.size());
+    for (std::uint32_t c : candidates_) {
+        const Collider& col = colliders[c];
+        found_at_[c] = col.xf;
+        const Aabb near = col.box.fattened(reach);
+        for (std::uint32_t i = 0; i < b.p.size(); ++i) {
+            if (b.p.inv_mass[i] == 0) continue;
+            const Vec3& x = at[i];
+            if (!near.contains(x)) continue;
+            Vec3 s, n;
+            Real d;
+            if (!point_shape_distance(x, *col.shape, col.xf, reach, s, n, d)) continue;
+            planes_.push_back({i, c, s, n});
+        }
+    }
+}
+
+Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal,
+                                    Vec3& surface) const {
+    const Transform& then = found_at_[pl.collider];
+    if (col.xf.p == then.p && col.xf.q.coeffs() == then.q.coeffs()) {
+        normal = pl.normal;  // the collider has not moved since: the plane as found
+        surface = x - normal.dot(x - pl.point) * normal;
+        return normal.dot(x - pl.point);
+    }
+    // A coupling layer refined the collider's pose: the plane moves rigidly with it.
+    normal = col.xf.q * then.rotate_inverse(pl.normal);
+    const Real d = normal.dot(x - col.xf.apply(then.apply_inverse(pl.point)));
+    surface = x - d * normal;
+    return d;
 }
 
 int ParticleCollision::project_positions(SoftBody& b, Real h) {
     int moved = 0;
     const Real r = b.def.thickness;
-    for (std::uint32_t c : candidates_) {
-        const Collider& col = (*colliders_)[c];
-        const Aabb reach = col.box.fattened(r);
+    for (const Plane& pl : planes_) {
+        const Collider& col = (*colliders_)[pl.collider];
+        Vec3& x = b.p.x[pl.particle];
+        Vec3 n, s;
+        const Real d = world_plane(pl, col, x, n, s);
+        if (d >= r) continue;
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
-        for (std::size_t i = 0; i < b.p.size(); ++i) {
-            if (b.p.inv_mass[i] == 0) continue;
-            Vec3& x = b.p.x[i];
-            if (!reach.contains(x)) continue;
-            Vec3 s, n;
-            Real d;
-            if (!point_shape_distance(x, *col.shape, col.xf, r, s, n, d) || d >= r) continue;
-            const Real push = r - d;
-            Vec3 dx = push * n;
-            // Friction: the particle's tangential motion this step relative to the surface point.
-            const Vec3 moved_by = x + dx - b.p.x_prev[i] - h * col.point_velocity(s);
-            const Vec3 tangential = moved_by - moved_by.dot(n) * n;
-            const Real t_len = tangential.norm();
-            if (t_len > 0) dx -= std::min(Real(1), mu * push / t_len) * tangential;
-            x += dx;
-            correction_[i] += dx;
-            ++moved;
-        }
+        const Real push = r - d;
+        Vec3 dx = push * n;
+        // Friction: the particle's tangential motion this step relative to the surface point.
+        const Vec3 moved_by = x + dx - b.p.x_prev[pl.particle] - h * col.point_velocity(s);
+        const Vec3 tangential = moved_by - moved_by.dot(n) * n;
+        const Real t_len = tangential.norm();
+        if (t_len > 0) dx -= std::min(Real(1), mu * push / t_len) * tangential;
+        x += dx;
+        correction_[pl.particle] += dx;
+        ++moved;
     }
     return moved;
 }
 
 void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out) {
     const Real r = b.def.thickness;
-    for (std::uint32_t c : candidates_) {
-        const Collider& col = (*colliders_)[c];
-        const Aabb reach = col.box.fattened(r * (1 + kContactSlop));
+    const bool position_friction = soft_method_stages(b.def.method).position_friction;  // project_positions
+    for (const Plane& pl : planes_) {
+        const Collider& col = (*colliders_)[pl.collider];
+        const std::uint32_t i = pl.particle;
+        Vec3& x = b.p.x[i];
+        Vec3 n, s;
+        const Real d = world_plane(pl, col, x, n, s);
+        if (d > r * (1 + kContactSlop)) continue;
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
         const Real e = std::max(b.def.restitution, col.restitution);
-        for (std::uint32_t i = 0; i < b.p.size(); ++i) {
-            if (b.p.inv_mass[i] == 0) continue;
-            Vec3& x = b.p.x[i];
-            if (!reach.contains(x)) continue;
-            Vec3 s, n;
-            Real d;
-            if (!point_shape_distance(x, *col.shape, col.xf, r * (1 + kContactSlop), s, n, d)) continue;
-            const Real depth = r - d;
-            if (depth > 0) x += depth * n;
-            // Velocity relative to the collider's surface point.
-            Vec3& v = b.p.v[i];
-            const Vec3 vs = col.point_velocity(s);
-            const Vec3 vrel = v - vs;
-            const Real vn = vrel.dot(n);
-            // Approach already removed by the relaxation's pushes: the net position correction along this
-            // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle
-            // back in each sweep must not look like an impact).
-            const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
-            const bool position_friction = soft_method_stages(b.def.method).position_friction;  // project_positions
-            if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
-            Vec3 dv = Vec3::Zero();
-            const Real removed = std::max(Real(0), -vn);  // approach this pass removes
-            const Real approach = removed + pushed_speed;
-            // Remove the approach; above the threshold reflect it scaled by e (Jakobsen reflects the old
-            // position across the contact plane).
-            const Real dvn = removed + (approach > kRestitutionThreshold ? e * approach : Real(0));
-            dv += dvn * n;
-            // Coulomb friction: the tangential velocity change is at most mu times the normal one.
-            const Vec3 vt = vrel - vn * n;
-            const Real vt_len = vt.norm();
-            if (vt_len > 0 && !position_friction) {
-                const Vec3 dvt = -std::min(Real(1), mu * (removed + pushed_speed) / vt_len) * vt;
-                dv += dvt;
-                // The step already moved the particle with its pre-friction velocity: take back the
-                // tangential part of that motion, as if friction had acted before the position update
-                // (otherwise a particle held by static friction still creeps g sin(theta) h^2 per step).
-                x += h * dvt;
-            }
-            v += dv;
-            ParticleContact pc;
-            pc.body = body_slot;
-            pc.particle = i;
-            pc.collider = c;
-            pc.normal = n;
-            pc.point = s;
-            pc.depth = std::max(Real(0), depth);
-            // What the contact did to the particle this step: this pass's velocity change and the
-            // position corrections of the relaxation (as a velocity change over h).
-            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
-            correction_[i].setZero();  // counted once, by the particle's first contact
-            out.push_back(pc);
+        const Real depth = r - d;
+        if (depth > 0) x += depth * n;
+        // Velocity relative to the collider's surface point.
+        Vec3& v = b.p.v[i];
+        const Vec3 vs = col.point_velocity(s);
+        const Vec3 vrel = v - vs;
+        const Real vn = vrel.dot(n);
+        // Approach already removed by the relaxation's pushes: the net position correction along this
+        // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle back in
+        // each sweep must not look like an impact).
+        const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
+        if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
+        Vec3 dv = Vec3::Zero();
+        const Real removed = std::max(Real(0), -vn);  // approach this pass removes
+        const Real approach = removed + pushed_speed;
+        // Remove the approach; above the threshold reflect it scaled by e (Jakobsen reflects the old
+        // position across the contact plane).
+        const Real dvn = removed + (approach > kRestitutionThreshold ? e * approach : Real(0));
+        dv += dvn * n;
+        // Coulomb friction: the tangential velocity change is at most mu times the normal one.
+        const Vec3 vt = vrel - vn * n;
+        const Real vt_len = vt.norm();
+        if (vt_len > 0 && !position_friction) {
+            const Vec3 dvt = -std::min(Real(1), mu * (removed + pushed_speed) / vt_len) * vt;
+            dv += dvt;
+            // The step already moved the particle with its pre-friction velocity: take back the
+            // tangential part of that motion, as if friction had acted before the position update
+            // (otherwise a particle held by static friction still creeps g sin(theta) h^2 per step).
+            x += h * dvt;
         }
+        v += dv;
+        ParticleContact pc;
+        pc.body = body_slot;
+        pc.particle = i;
+        pc.collider = pl.collider;
+        pc.normal = n;
+        pc.point = s;
+        pc.depth = std::max(Real(0), depth);
+        // What the contact did to the particle this step: this pass's velocity change and the position
+        // corrections of the relaxation (as a velocity change over h).
+        pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
+        correction_[i].setZero();  // counted once, by the particle's first contact
+        out.push_back(pc);
     }
 }
 

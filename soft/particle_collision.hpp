@@ -1,6 +1,6 @@
 // Particles against rigid shapes, one-way (the shapes are not pushed back): each particle is a sphere of
 // radius `thickness`, projected out of every collider it penetrates (Jakobsen 2003: collisions by
-// projection). The final pass fixes velocities: the normal relative velocity is removed (or reflected by
+// projection), each collider stood for by the particle's collision plane against it, found once per step. The final pass fixes velocities: the normal relative velocity is removed (or reflected by
 // the restitution, as Jakobsen's reflection of the old position) and friction takes up to mu times the
 // normal velocity change from the tangential one (Coulomb, as an impulse per particle). Verlet bodies get
 // their friction at the position level inside the relaxation (project_positions), as Jakobsen's friction
@@ -22,12 +22,17 @@ bool point_shape_distance(const Vec3& point, const Shape& shape, const Transform
 
 class ParticleCollision {
 public:
-    /// Picks the colliders whose boxes overlap the body's box swept over the step (once per step).
+    /// DetectCollisions, once per step: picks the colliders whose boxes overlap the body's reach this step
+    /// and, for every particle that can reach one of them, finds its collision plane against it (as Jolt
+    /// does): the closest surface point and the outward normal at the particle's predicted end-of-step
+    /// position (Particles::x_next, where the contact pass tests it), kept in the collider's frame so the plane moves with the collider if a coupling layer
+    /// refines its pose before the solve. The iterations then test planes, not shapes. For a convex
+    /// shape the plane is a supporting plane, so a particle outside it is outside the shape.
     void begin(const SoftBody& b, const std::vector<Collider>& colliders, Real h);
-    bool empty() const { return candidates_.empty(); }
-    /// Pushes penetrating particles out of the candidate colliders and applies Coulomb friction at the
-    /// position level (Müller et al. 2007 / Macklin et al. 2014: the tangential motion over the step,
-    /// relative to the collider, is cancelled up to mu times the push); returns how many it moved. Used by
+    bool empty() const { return planes_.empty(); }
+    /// Pushes particles out of their collision planes and applies Coulomb friction at the position
+    /// level (Müller et al. 2007 / Macklin et al. 2014: the tangential motion over the step, relative to
+    /// the collider, is cancelled up to mu times the push); returns how many it moved. Used by
     /// position-based methods inside their relaxation, where friction must act before the links are
     /// solved again (moving particles afterwards would bend a stick box or a ragdoll).
     int project_positions(SoftBody& b, Real h);
@@ -36,8 +41,22 @@ public:
     void finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out);
 
 private:
+    /// A particle's collision plane against one collider, in the world at the collider's pose when it
+    /// was found (moved with the collider if the pose changes before the solve).
+    struct Plane {
+        std::uint32_t particle;
+        std::uint32_t collider;
+        Vec3 point;   ///< closest surface point
+        Vec3 normal;  ///< outward unit normal there
+    };
+    /// The plane in the world at the collider's current pose: returns the signed distance of x from it
+    /// (minus nothing: the particle radius is the caller's), and the point of the plane under x.
+    Real world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal, Vec3& surface) const;
+
     const std::vector<Collider>* colliders_ = nullptr;
-    std::vector<std::uint32_t> candidates_;
+    std::vector<std::uint32_t> candidates_;  ///< scratch of begin(): colliders near the body
+    std::vector<Plane> planes_;              ///< by collider (in candidate order), then by particle
+    std::vector<Transform> found_at_;        ///< by collider index: its pose when the planes were found
     /// Per particle: the net position correction project_positions() made this step (push and friction,
     /// m). A position-based method (Verlet) absorbs the approach velocity in these pushes; finish() counts
     /// its normal part over h as normal velocity change (restitution, friction budget) and reports

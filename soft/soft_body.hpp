@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "engine/core/aabb.hpp"
 #include "soft/particles.hpp"
 
 namespace sinew {
@@ -133,6 +134,7 @@ struct SoftBody {
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)
+    Aabb sleep_box;             ///< while asleep: its particles' box fattened by the thickness
     Real sleep_timer = 0;
     std::unique_ptr<ImplicitEulerCache> implicit_cache;
     std::unique_ptr<FastMassSpringCache> fms_cache;

@@ -214,6 +214,7 @@ bool SoftSystem::all_finite() const {
 
 Aabb SoftSystem::bounds(std::uint32_t slot) const {
     const SoftBody& b = bodies_[slot];
+    if (!b.awake) return b.sleep_box;  // its particles have not moved since it fell asleep
     Aabb box;
     for (const Vec3& x : b.p.x) box.grow(x);
     return box.fattened(b.def.thickness);
@@ -354,6 +355,11 @@ void SoftSystem::update_sleep(SoftBody& b, Real h) {
     for (std::size_t i = 0; i < b.p.size() && slow; ++i) slow = b.p.v[i].squaredNorm() <= limit2;
     b.sleep_timer = slow ? b.sleep_timer + h : Real(0);
     if (b.sleep_timer >= settings_.sleep_time) {
+        // Kept while it sleeps: the per-step checks that may wake it (a collider near it) then cost
+        // nothing per particle.
+        Aabb box;
+        for (const Vec3& x : b.p.x) box.grow(x);
+        b.sleep_box = box.fattened(b.def.thickness);
         b.awake = false;
         for (Vec3& v : b.p.v) v.setZero();
     }

@@ -112,6 +112,21 @@ T read_enum(const Node& obj, const char* key, T fallback, const std::pair<const 
     n->fail("unknown " + n->name() + " \"" + s + "\" (expected one of: " + one_of(names) + ")");
 }
 
+/// An enum read by the names its layer gives it: name(T(i)) for i in [0, count), so a new value of the
+/// enum needs no edit here.
+template <class T, class NameFn>
+T read_enum_named(const Node& obj, const char* key, T fallback, int count, NameFn name) {
+    std::optional<Node> n = obj.find(key);
+    if (!n) return fallback;
+    const std::string& s = n->string();
+    std::vector<std::string> names;
+    for (int i = 0; i < count; ++i) {
+        if (s == name(T(i))) return T(i);
+        names.emplace_back(name(T(i)));
+    }
+    n->fail("unknown " + n->name() + " \"" + s + "\" (expected one of: " + one_of(names) + ")");
+}
+
 }  // namespace sinew::scene_json
 
 namespace sinew::scene_json {

@@ -10,13 +10,6 @@
 namespace sinew::scene_json {
 namespace {
 
-const std::pair<const char*, SoftMethod> kMethods[] = {
-    {"verlet", SoftMethod::Verlet},
-    {"explicit", SoftMethod::ExplicitEuler},
-    {"semi-implicit", SoftMethod::SemiImplicitEuler},
-    {"implicit", SoftMethod::ImplicitEuler},
-    {"fast-ms", SoftMethod::FastMassSpring}};
-
 LinkMaterial parse_link_material(const Node& body) {
     LinkMaterial m;
     std::optional<Node> n = body.find("links");
@@ -252,7 +245,7 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         }
 
         SoftBodyDef base;
-        base.method = read_enum(b, "method", SoftMethod::Verlet, kMethods);
+        base.method = read_enum_named(b, "method", SoftMethod::Verlet, int(SoftMethod::Count), soft_method_name);
         parse_solver(b, base);
         parse_material(b, base);
         base.initial_velocity = read_vec3(b, "velocity", Vec3::Zero());
