@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "soft/force_models.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -33,8 +34,8 @@ std::vector<Vec3>& total_forces(SoftBody& b) {
     c.resize(b.p.size(), b.links.size());
     std::vector<Vec3>& f = c.force;
     for (std::size_t i = 0; i < b.p.size(); ++i) f[i] = b.p.f[i] + b.p.mass[i] * b.gravity;
-    add_spring_forces(b, b.p.x, b.p.v, f);
-    if (b.def.pressure != 0) add_pressure_forces(b, b.p.x, f);
+    for (const ForceModel* model : force_models())
+        if (model->present(b)) model->add_forces(b, b.p.x, b.p.v, f);
     return f;
 }
 

@@ -1,6 +1,7 @@
-// Implicit Euler for mass-spring bodies: one Newton step per frame (Baraff & Witkin 1998), the linear
-// system solved by block-Jacobi preconditioned conjugate gradient, matrix-free over the links (Volino &
-// Magnenat-Thalmann, seed 003 §2.3: the products are accumulated link by link, no matrix is built).
+// Implicit Euler for force-based soft bodies: one Newton step per frame (Baraff & Witkin 1998), the linear
+// system solved by block-Jacobi preconditioned conjugate gradient (soft/block_cg.hpp), matrix-free over
+// the force models' elements (Volino & Magnenat-Thalmann, seed 003 §2.3: the products are accumulated
+// link by link, no matrix is built).
 // Equations: Baraff & Witkin 1998, Volino & Magnenat-Thalmann 2000; docs/theory.md#euler and
 // docs/theory.md#mass-spring-forces.
 //
@@ -17,13 +18,9 @@
 // step), which needs the state n-1 and a special first step; the θ form has the same end points, keeps
 // one state, and is why our λ runs from 1 (backward Euler) down to ½ (midpoint).
 //
-// Jacobians per link j = (a, b), d = x_a - x_b, x̂ = d/|d|, L rest length, β = b.def.isotropic_blend:
-//     ∂f_a/∂x_a = -k [ c (I - x̂x̂ᵀ) + x̂x̂ᵀ ],   c = (1-β)(1 - L/|d|) + β,
-// Baraff-Witkin's exact (anisotropic) block for β = 0 and the isotropic -k I for β = 1 (Volino's linear
-// blend, seed 003 §2.4). A compressed link (|d| < L) has c < 0 at β = 0: the exact block is then
-// indefinite and CG can break down, so c is clamped at 0 (a compressed link loses its lateral stiffness
-// term, the common remedy). Volino's blend alone keeps c ≥ 0 down to |d| = (1-β) L.
-//     ∂f_a/∂v_a = -k_d x̂x̂ᵀ   (the damping force's dependence on x is neglected, as Baraff-Witkin do).
+// The force models (soft/force_models.hpp) add their own linearisations: the springs' Jacobian blocks and
+// their Volino blend are in soft/spring_forces.cpp; Matyka's pressure stays explicit. This file knows
+// none of them.
 // The drag (v *= 1/(1 + h drag) in every integrator) is the force -drag m v, also implicit here:
 // ∂f/∂v = -drag M, so at λ = 1 a particle without springs gets exactly v_{n+1} = (v_n + h g)/(1 + h drag).
 // External forces and Matyka's pressure are explicit (evaluated at x_n).
@@ -49,6 +46,7 @@
 #include <memory>
 #include <string>
 
+#include "soft/force_models.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -69,19 +67,13 @@ void ImplicitEulerCache::resize(std::size_t n, std::size_t m) {
 
 namespace {
 
-constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
-
-// The CG product q = A u with A = M (1 + hλ drag) + Σ_j S_j (u_a - u_b) scattered to a (+) and b (-), and
-// the rows of pinned particles zeroed (the filter).
-void system_product(const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
+// The CG product q = A u with A = M (1 + hλ drag) plus each force model's part, and the rows of pinned
+// particles zeroed (the filter).
+void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
     const std::size_t n = u.size();
     for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
-    for (const ImplicitEulerCache::LinkBlock& l : c.links) {
-        const Vec3 du = u[l.a] - u[l.b];
-        const Vec3 s = l.iso * du + (l.aniso * l.dir.dot(du)) * l.dir;
-        q[l.a] += s;
-        q[l.b] -= s;
-    }
+    for (const ForceModel* model : force_models())
+        if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
     for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
@@ -98,15 +90,13 @@ void step_implicit_euler(SoftBody& b, Real h) {
     c.resize(n, m);
 
     const Real lambda = b.def.implicit_lambda;
-    const Real blend = b.def.isotropic_blend;
     const Real hl = h * lambda;        // coefficient of ∂f/∂v in the matrix
-    const Real h2l2 = hl * hl;         // coefficient of ∂f/∂x in the matrix
     const Real h2l = h * hl;           // coefficient of ∂f/∂x v_n in the right-hand side
     const Real drag = b.def.drag;
     const Real mass_scale = Real(1) + hl * drag;
 
-    // Forces of state n without springs, and the diagonal blocks' mass part. rhs first collects
-    // hλ ∂f/∂x v_n (times h below).
+    // Forces of state n without the force models, and the diagonal blocks' mass part. rhs first collects
+    // ∂f/∂x v_n (times h²λ below).
     std::vector<Vec3>& f = c.force;
     c.pinned.clear();
     for (std::size_t i = 0; i < n; ++i) {
@@ -120,52 +110,21 @@ void step_implicit_euler(SoftBody& b, Real h) {
         if (p.inv_mass[i] == 0) c.pinned.push_back(std::uint32_t(i));  // capacity n: no allocation
     }
 
-    // One pass over the links: spring force, the link's block S_j, its share of the diagonal blocks, and
-    // of ∂f/∂x v_n (with the velocity of pinned particles taken as 0, see above).
-    for (std::size_t j = 0; j < m; ++j) {
-        const Link& l = b.links[j];
-        const Vec3 va = p.inv_mass[l.a] != 0 ? p.v[l.a] : Vec3::Zero();
-        const Vec3 vb = p.inv_mass[l.b] != 0 ? p.v[l.b] : Vec3::Zero();
-        const Vec3 dvel = va - vb;
-        const Vec3 dx = p.x[l.a] - p.x[l.b];
-        const Real len = dx.norm();
-        Real iso, aniso;
-        Vec3 e;
-        Vec3 kv;  // ∂f_a/∂x_a (v_a - v_b)
-        if (len < kMinLinkLength) {
-            // No direction: no force, isotropic stiffness (Volino's β = 1 for this link).
-            e.setZero();
-            iso = h2l2 * l.stiffness;
-            aniso = 0;
-            kv = -l.stiffness * dvel;
-        } else {
-            e = dx / len;
-            const Real fs = l.stiffness * (len - l.rest) + l.damping * e.dot(p.v[l.a] - p.v[l.b]);
-            const Vec3 fa = -fs * e;
-            f[l.a] += fa;
-            f[l.b] -= fa;
-            const Real cl = std::max(Real(0), (1 - blend) * (1 - l.rest / len) + blend);
-            iso = h2l2 * l.stiffness * cl;
-            aniso = h2l2 * l.stiffness * (1 - cl) + hl * l.damping;
-            kv = -l.stiffness * (cl * dvel + ((1 - cl) * e.dot(dvel)) * e);
-        }
-        c.links[j] = ImplicitEulerCache::LinkBlock{l.a, l.b, iso, aniso, e};
-        c.rhs[l.a] += kv;
-        c.rhs[l.b] -= kv;
-        const Real sxx = iso + aniso * e.x() * e.x(), syy = iso + aniso * e.y() * e.y(),
-                   szz = iso + aniso * e.z() * e.z();
-        const Real sxy = aniso * e.x() * e.y(), sxz = aniso * e.x() * e.z(), syz = aniso * e.y() * e.z();
-        for (const std::uint32_t i : {l.a, l.b}) {
-            Real* B = c.cg.block(i);
-            B[0] += sxx;
-            B[1] += syy;
-            B[2] += szz;
-            B[3] += sxy;
-            B[4] += sxz;
-            B[5] += syz;
-        }
+    // Each force model the body has adds its forces, its share of ∂f/∂x v_n and of the diagonal blocks
+    // (soft/force_models.hpp: springs, then pressure, which stays explicit).
+    ImplicitTerms terms;
+    terms.h = h;
+    terms.lambda = lambda;
+    terms.force = &f;
+    terms.dfdx_v = &c.rhs;
+    terms.cache = &c;
+    for (const ForceModel* model : force_models()) {
+        if (!model->present(b)) continue;
+        if (model->prepare_implicit)
+            model->prepare_implicit(b, terms);
+        else
+            model->add_forces(b, p.x, p.v, f);
     }
-    if (b.def.pressure != 0) add_pressure_forces(b, p.x, f);
 
     // Right-hand side h (f_n + hλ ∂f/∂x v_n), the preconditioner, and the filter.
     for (std::size_t i = 0; i < n; ++i) {
@@ -183,7 +142,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     const bool warm = c.cg_converged;
     if (warm)
         for (std::uint32_t i : c.pinned) c.dv[i].setZero();
-    const BlockCg::Result res = c.cg.solve([&c](const std::vector<Vec3>& u, std::vector<Vec3>& q) { system_product(c, u, q); },
+    const BlockCg::Result res = c.cg.solve([&](const std::vector<Vec3>& u, std::vector<Vec3>& q) { system_product(b, c, u, q); },
                                            c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
     c.cg_iterations = res.iterations;
     c.cg_residual = res.residual;

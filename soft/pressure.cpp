@@ -3,6 +3,7 @@
 // face is pushed outward by F = P A n̂ = (P_c / V) A n̂, a third of it on each of its vertices.
 #include <algorithm>
 
+#include "soft/force_models.hpp"
 #include "soft/soft_integrators.hpp"
 
 namespace sinew {
@@ -56,5 +57,15 @@ void add_pressure_forces(const SoftBody& b, const std::vector<Vec3>& x, std::vec
         f[i2] += third;
     }
 }
+
+namespace {
+bool has_pressure(const SoftBody& b) { return b.def.pressure != 0; }
+void add_pressure(const SoftBody& b, const std::vector<Vec3>& x, const std::vector<Vec3>&, std::vector<Vec3>& f) {
+    add_pressure_forces(b, x, f);
+}
+}  // namespace
+
+// Explicit in every integrator (no implicit terms): its stiffness is small next to the springs'.
+const ForceModel kPressureForces{"pressure", has_pressure, add_pressure, nullptr, nullptr};
 
 }  // namespace sinew
