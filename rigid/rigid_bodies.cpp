@@ -56,6 +56,9 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         mass_.push_back(0);
         body_inv_mass_.push_back(0);
         inv_inertia_local_.emplace_back();
+        inertia_local_.emplace_back();
+        w_frame_.emplace_back();
+        spherical_inertia_.push_back(0);
         local_com_.emplace_back();
         linear_damping_.push_back(0);
         angular_damping_.push_back(0);
@@ -82,6 +85,13 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     mass_[slot] = dynamic ? mp.mass : 0;
     body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
     inv_inertia_local_[slot] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
+    inertia_local_[slot] = dynamic ? mp.inertia : Mat3::Zero();
+    {
+        // Isotropic to 1e-6: the gyroscopic effect is below float's resolution of the spin.
+        const Mat3& in = inertia_local_[slot];
+        const Real k = in.trace() / 3;
+        spherical_inertia_[slot] = (in - k * Mat3::Identity()).cwiseAbs().maxCoeff() <= Real(1e-6) * std::abs(k) ? 1 : 0;
+    }
     local_com_[slot] = dynamic ? mp.center : Vec3::Zero();
     linear_damping_[slot] = def.linear_damping;
     angular_damping_[slot] = def.angular_damping;
@@ -92,6 +102,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     user_data_[slot] = def.user_data;
     island_[slot] = slot;
     state_.q[slot] = pose.q;
+    w_frame_[slot] = pose.q;
     state_.x[slot] = pose.apply(local_com_[slot]);
     state_.v[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.linear_velocity;
     state_.w[slot] = def.type == BodyType::Static ? Vec3::Zero() : def.angular_velocity;
@@ -164,6 +175,7 @@ void RigidSystem::set_transform(BodyId id, const Transform& xf) {
     std::uint32_t s = id.index;
     state_.q[s] = xf.q.normalized();
     state_.x[s] = xf.p + state_.q[s] * local_com_[s];
+    w_frame_[s] = state_.q[s];  // the angular velocity is kept, not the angular momentum
     tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
     wake_island(s);
 }
@@ -184,6 +196,7 @@ void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
     if (type_[id.index] == BodyType::Static) return;
     state_.v[id.index] = v;
     state_.w[id.index] = w;
+    w_frame_[id.index] = state_.q[id.index];
     wake_island(id.index);
 }
 
@@ -234,7 +247,7 @@ double RigidSystem::kinetic_energy() const {
     for (std::uint32_t s = 0; s < slots_.size(); ++s) {
         if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
         Mat3 r = state_.q[s].toRotationMatrix();
-        Mat3 inertia = r * inv_inertia_local_[s].inverse() * r.transpose();
+        Mat3 inertia = r * inertia_local_[s] * r.transpose();
         e += 0.5 * mass_[s] * state_.v[s].squaredNorm() + 0.5 * state_.w[s].dot(inertia * state_.w[s]);
     }
     return e;

@@ -32,6 +32,11 @@ struct RigidSettings {
     /// `velocity_iterations` means passes over the constraints for every method.
     int substeps = 0;
     int effective_substeps() const { return substeps > 0 ? substeps : (velocity_iterations / 2 > 0 ? velocity_iterations / 2 : 1); }
+    /// The gyroscopic effect, -w x (I w): between velocity updates a body's angular momentum is kept while
+    /// its inertia turns with it (rigid/rigid_integration.cpp), so a spinning body precesses and tumbles as
+    /// it should (the intermediate-axis flip), stable at any spin. Off: w changes only by torques and
+    /// contacts.
+    bool gyroscopic = true;
     Real contact_hertz = 60;           ///< soft step: contact stiffness (Hz), capped at a quarter of the sub-step rate
     /// Soft step: critically damped, so pushing out adds no bounce. With the graph-coloured solver a
     /// higher ratio makes the contact closer to rigid and worse conditioned: pyramid-40 vibrates at 1.5

@@ -210,6 +210,13 @@ private:
     std::vector<Real> mass_;
     std::vector<Real> body_inv_mass_;     ///< the body's own inverse mass (0 if not dynamic)
     std::vector<Mat3> inv_inertia_local_;
+    std::vector<Mat3> inertia_local_;     ///< about the centre of mass, body axes (zero if not dynamic)
+    /// The orientation the angular velocity was last made for (by the solve, the user or the gyroscopic
+    /// update): the free motion since then keeps the angular momentum that w had there.
+    std::vector<Quat> w_frame_;
+    /// 1 if the inertia is the same about every axis (cubes, spheres, regular solids): turning it changes
+    /// nothing, so the gyroscopic update is skipped.
+    std::vector<std::uint8_t> spherical_inertia_;
     std::vector<Vec3> local_com_;
     std::vector<Real> linear_damping_, angular_damping_, gravity_scale_;
     std::vector<bool> allow_sleep_, awake_;

@@ -71,14 +71,24 @@ inline void tangent_basis(const Vec3& n, Vec3& t1, Vec3& t2) {
     t2 = n.cross(t1);
 }
 
-/// Integrates an orientation by angular velocity w over h (first order, then renormalised):
-/// q' = q + h/2 * (0, w) * q. Adequate for game steps and what Box2D/Bullet do; the renormalisation
-/// keeps |q| = 1 so rotations never shear.
+/// Turns an orientation by angular velocity w (world axes) held for h: the exact rotation by the angle
+/// |w| h about w, q' = (cos a, sin a w/|w|) q with a = |w| h / 2 (the exponential map), then renormalised.
+/// The first-order update q + h/2 (0, w) q that Box2D and Bullet use turns a body too slowly by a
+/// relative a^2 / 3: 5% at 50 rad/s and h = 1/60. Below a half-angle of 1e-3 rad that error is under
+/// 4e-7, below float's resolution, and the first-order form is used (it is what resting bodies get).
 inline Quat integrate_rotation(const Quat& q, const Vec3& w, Real h) {
-    Quat dq(0, w.x(), w.y(), w.z());
-    Quat r = q;
-    Quat d = dq * q;
-    r.coeffs() += (h * Real(0.5)) * d.coeffs();
+    const Vec3 half = (h * Real(0.5)) * w;  // half the rotation vector
+    const Real a2 = half.squaredNorm();
+    Quat r;
+    if (a2 < Real(1e-6)) {
+        const Quat d = Quat(0, w.x(), w.y(), w.z()) * q;
+        r = q;
+        r.coeffs() += (h * Real(0.5)) * d.coeffs();
+    } else {
+        const Real a = std::sqrt(a2);
+        const Real s = std::sin(a) / a;
+        r = Quat(std::cos(a), s * half.x(), s * half.y(), s * half.z()) * q;
+    }
     r.normalize();
     return r;
 }

@@ -94,7 +94,7 @@ private:
             const Node& o = *solver;
             o.allow_keys({"kind", "velocity_iterations", "warm_starting", "position_correction", "baumgarte", "slop",
                           "restitution_threshold", "contact_margin", "max_correction_velocity", "newton", "substeps",
-                          "contact_hertz", "contact_damping_ratio", "contact_push_velocity"});
+                          "contact_hertz", "contact_damping_ratio", "contact_push_velocity", "gyroscopic"});
             // One solver kind. Files of format 1 before it named the sequential-impulse solvers as
             // "sequential_impulse" plus a "position_correction"; they still load (docs/scene-format.md).
             static const std::pair<const char*, RigidSolverKind> kinds[] = {
@@ -115,6 +115,7 @@ private:
             }
             r.velocity_iterations = read_int(o, "velocity_iterations", r.velocity_iterations, 1, 1000);
             r.warm_starting = read_bool(o, "warm_starting", r.warm_starting);
+            r.gyroscopic = read_bool(o, "gyroscopic", r.gyroscopic);
             r.baumgarte = read_real(o, "baumgarte", r.baumgarte, Range::UnitInterval);
             r.linear_slop = read_real(o, "slop", r.linear_slop, Range::NonNegative);
             if (r.linear_slop >= 1) o.get("slop").fail("slop must be < 1 m, got " + o.get("slop").json().dump());

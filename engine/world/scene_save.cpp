@@ -153,6 +153,7 @@ Json settings_json(const World& world) {
     solver["kind"] = rigid_solver_name(r.solver);
     solver["velocity_iterations"] = r.velocity_iterations;
     solver["warm_starting"] = r.warm_starting;
+    solver["gyroscopic"] = r.gyroscopic;
     solver["baumgarte"] = number(r.baumgarte);
     solver["slop"] = number(r.linear_slop);
     solver["restitution_threshold"] = number(r.restitution_threshold);
