@@ -50,10 +50,7 @@ void OneWayCoupling::update() {
     for (Collider& c : soft_.colliders())
         if (c.owner != kNoOwner && c.owner < rigid_.slot_count() && rigid_.slot_alive(c.owner))
             place_collider(c, rigid_, c.owner, t);
-    for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
-        if (!soft_.slot_alive(s)) continue;
-        for (Attachment& a : soft_.slot_body(s).attachments) place_attachment(a, rigid_, t);
-    }
+    refresh_attachments();
 }
 
 void OneWayCoupling::refresh_attachments() {

@@ -100,8 +100,7 @@ struct RowSoftness {
 /// What a source is told when the solver prepares a step.
 struct RowStep {
     Real h = 0;                ///< length of the (sub-)step each pass of rows acts over (s)
-    Real step = 0;             ///< the whole step (s)
-    int substeps = 1;          ///< (sub-)steps of length h in the step
+    int substeps = 1;          ///< (sub-)steps of length h in the step (the step is h * substeps)
     bool warm_starting = true; ///< keep the accumulated impulses of the last step (else start from zero)
     RowSoftness softness;
 };

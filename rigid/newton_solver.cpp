@@ -289,7 +289,7 @@ void NewtonImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     const int iters = set.newton_contact_iterations;
     // Joints and other outside rows: velocity constraints with a Baumgarte bias, one pass before each
     // contact pass, on the system's own arrays (this solver has no copy of the bodies).
-    const RowStep step{h, h, 1, false, RowSoftness{false, false, set.baumgarte, 0, 0}};
+    const RowStep step{h, 1, false, RowSoftness{false, false, set.baumgarte, 0, 0}};
     const std::vector<ConstraintRows*>& sources = sys.row_sources();
     for (ConstraintRows* rows : sources) rows->prepare(sys, step);
     const BodyVelocities vel = BodyVelocities::of_arrays(st.v, st.w);

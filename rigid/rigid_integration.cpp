@@ -42,17 +42,19 @@ Vec3 keep_angular_momentum(const Quat& q_then, const Quat& q_now, const Mat3& in
 
 }  // namespace
 
+void RigidSystem::follow_rotation(std::uint32_t s) {
+    if (settings_.gyroscopic && !spherical_inertia_[s] && w_frame_[s].coeffs() != state_.q[s].coeffs())
+        state_.w[s] = keep_angular_momentum(w_frame_[s], state_.q[s], inertia_local_[s], inv_inertia_local_[s], state_.w[s]);
+    w_frame_[s] = state_.q[s];
+}
+
 void RigidSystem::integrate_velocities(Real h) {
     const std::size_t n = slots_.size();
-    const bool gyroscopic = settings_.gyroscopic;
-    for (std::size_t s = 0; s < n; ++s) {
+    for (std::uint32_t s = 0; s < n; ++s) {
         if (state_.inv_mass[s] == 0) continue;
         Vec3 v = state_.v[s] + h * (gravity_scale_[s] * settings_.gravity + body_inv_mass_[s] * state_.force[s]);
-        const Vec3 w0 = gyroscopic && !spherical_inertia_[s] && w_frame_[s].coeffs() != state_.q[s].coeffs()
-                            ? keep_angular_momentum(w_frame_[s], state_.q[s], inertia_local_[s], inv_inertia_local_[s], state_.w[s])
-                            : state_.w[s];
-        w_frame_[s] = state_.q[s];
-        Vec3 w = w0 + h * (state_.inv_inertia_world[s] * state_.torque[s]);
+        follow_rotation(s);  // the gyroscopic effect of the rotation since the last velocity update
+        Vec3 w = state_.w[s] + h * (state_.inv_inertia_world[s] * state_.torque[s]);
         // Implicit damping factor 1/(1 + h c): unconditionally stable, as Box2D does.
         state_.v[s] = v / (1 + h * linear_damping_[s]);
         state_.w[s] = w / (1 + h * angular_damping_[s]);
@@ -80,11 +82,8 @@ void RigidSystem::integrate_positions(Real h) {
     if (settings_.gyroscopic) {
         // The step's rotation turned each body's inertia: its angular velocity at the new orientation
         // keeps the angular momentum (so what the step reports agrees with where the body now is).
-        for (std::uint32_t s = 0; s < slots_.size(); ++s) {
-            if (state_.inv_mass[s] == 0 || spherical_inertia_[s] || w_frame_[s].coeffs() == state_.q[s].coeffs()) continue;
-            state_.w[s] = keep_angular_momentum(w_frame_[s], state_.q[s], inertia_local_[s], inv_inertia_local_[s], state_.w[s]);
-            w_frame_[s] = state_.q[s];
-        }
+        for (std::uint32_t s = 0; s < slots_.size(); ++s)
+            if (state_.inv_mass[s] != 0) follow_rotation(s);
     }
     if (settings_.sleeping) update_sleep(h);
 }

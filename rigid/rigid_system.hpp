@@ -195,6 +195,9 @@ private:
     Transform detection_transform(std::uint32_t slot, Real h) const;
     void solve_velocities(Real h);
     void integrate_positions(Real h);
+    /// The gyroscopic effect of body s's rotation since its angular velocity was last set (w_frame_): the
+    /// world angular momentum kept while the inertia turns (rigid/rigid_integration.cpp).
+    void follow_rotation(std::uint32_t s);
     void update_sleep(Real h);
     void wake_island(std::uint32_t slot);
     std::uint32_t find_root(std::uint32_t slot);

@@ -228,7 +228,7 @@ void SequentialImpulseSolver::solve_velocities(RigidSystem& sys, Real h) {
     // Joints and other outside rows (rigid/constraint_rows.hpp) work on the solver's own bodies.
     const bool split = set.solver == RigidSolverKind::SplitImpulse;
     // With split impulses and warm starting the joints project their error after the step (no bias here).
-    const RowStep step{h, h, 1, set.warm_starting, RowSoftness{false, split && set.warm_starting, set.baumgarte, 0, 0}};
+    const RowStep step{h, 1, set.warm_starting, RowSoftness{false, split && set.warm_starting, set.baumgarte, 0, 0}};
     const std::vector<ConstraintRows*>& sources = sys.row_sources();
     for (ConstraintRows* rows : sources) rows->prepare(sys, step);
     const BodyVelocities vel = BodyVelocities::of(bodies_, &SolverBody::v, &SolverBody::w);

@@ -355,7 +355,7 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     prepare(sys, h_sub);
     // Joints and other outside rows are soft too (Box2D v3: twice the contact stiffness, damping ratio 2);
     // they work on the solver's WideBody rows through a view, as the contacts do.
-    const RowStep step{h_sub, h, n_sub, set.warm_starting, RowSoftness{true, false, set.baumgarte, 2 * set.contact_hertz, 2}};
+    const RowStep step{h_sub, n_sub, set.warm_starting, RowSoftness{true, false, set.baumgarte, 2 * set.contact_hertz, 2}};
     for (ConstraintRows* rows : sys.row_sources()) rows->prepare(sys, step);
     const BodyVelocities vel = body_view();
     h_sub_ = h_sub;

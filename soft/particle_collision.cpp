@@ -68,14 +68,15 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
 Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal,
                                     Vec3& surface) const {
     const Transform& then = found_at_[pl.collider];
+    Real d;
     if (col.xf.p == then.p && col.xf.q.coeffs() == then.q.coeffs()) {
         normal = pl.normal;  // the collider has not moved since: the plane as found
-        surface = x - normal.dot(x - pl.point) * normal;
-        return normal.dot(x - pl.point);
+        d = normal.dot(x - pl.point);
+    } else {
+        // A coupling layer refined the collider's pose: the plane moves rigidly with it.
+        normal = col.xf.q * then.rotate_inverse(pl.normal);
+        d = normal.dot(x - col.xf.apply(then.apply_inverse(pl.point)));
     }
-    // A coupling layer refined the collider's pose: the plane moves rigidly with it.
-    normal = col.xf.q * then.rotate_inverse(pl.normal);
-    const Real d = normal.dot(x - col.xf.apply(then.apply_inverse(pl.point)));
     surface = x - d * normal;
     return d;
 }

@@ -212,12 +212,18 @@ bool SoftSystem::all_finite() const {
     return true;
 }
 
-Aabb SoftSystem::bounds(std::uint32_t slot) const {
-    const SoftBody& b = bodies_[slot];
-    if (!b.awake) return b.sleep_box;  // its particles have not moved since it fell asleep
+namespace {
+/// The box of a body's particles, fattened by their radius.
+Aabb particle_bounds(const SoftBody& b) {
     Aabb box;
     for (const Vec3& x : b.p.x) box.grow(x);
     return box.fattened(b.def.thickness);
+}
+}  // namespace
+
+Aabb SoftSystem::bounds(std::uint32_t slot) const {
+    const SoftBody& b = bodies_[slot];
+    return b.awake ? particle_bounds(b) : b.sleep_box;  // a sleeping body's particles have not moved
 }
 
 // ---- stepping -----------------------------------------------------------------------------------------
@@ -357,9 +363,7 @@ void SoftSystem::update_sleep(SoftBody& b, Real h) {
     if (b.sleep_timer >= settings_.sleep_time) {
         // Kept while it sleeps: the per-step checks that may wake it (a collider near it) then cost
         // nothing per particle.
-        Aabb box;
-        for (const Vec3& x : b.p.x) box.grow(x);
-        b.sleep_box = box.fattened(b.def.thickness);
+        b.sleep_box = particle_bounds(b);
         b.awake = false;
         for (Vec3& v : b.p.v) v.setZero();
     }
