@@ -28,12 +28,14 @@ void check_step(Real h, const char* who) {
 // Total force of state n into the cache (which doubles as the Euler integrators' scratch, see
 // solver_caches.hpp): external forces, gravity as m g (pinned particles' entries are never read), springs,
 // and pressure (explicit in every integrator, only when the body has it: soft/pressure.cpp).
-std::vector<Vec3>& total_forces(SoftBody& b) {
+std::vector<Vec3>& total_forces(SoftBody& b, Real h) {
     if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
     ImplicitEulerCache& c = *b.implicit_cache;
     c.resize(b.p.size(), b.links.size());
     std::vector<Vec3>& f = c.force;
     for (std::size_t i = 0; i < b.p.size(); ++i) f[i] = b.p.f[i] + b.p.mass[i] * b.gravity;
+    for (const ForceModel* model : force_models())
+        if (model->begin_step && model->present(b)) model->begin_step(b, h);
     for (const ForceModel* model : force_models())
         if (model->present(b)) model->add_forces(b, b.p.x, b.p.v, f);
     return f;
@@ -43,7 +45,7 @@ std::vector<Vec3>& total_forces(SoftBody& b) {
 
 void step_explicit_euler(SoftBody& b, Real h) {
     check_step(h, "step_explicit_euler");
-    const std::vector<Vec3>& f = total_forces(b);
+    const std::vector<Vec3>& f = total_forces(b, h);
     Particles& p = b.p;
     const Real keep = Real(1) / (Real(1) + h * b.def.drag);
     for (std::size_t i = 0; i < p.size(); ++i) {
@@ -60,7 +62,7 @@ void step_explicit_euler(SoftBody& b, Real h) {
 
 void step_semi_implicit_euler(SoftBody& b, Real h) {
     check_step(h, "step_semi_implicit_euler");
-    const std::vector<Vec3>& f = total_forces(b);
+    const std::vector<Vec3>& f = total_forces(b, h);
     Particles& p = b.p;
     const Real keep = Real(1) / (Real(1) + h * b.def.drag);
     for (std::size_t i = 0; i < p.size(); ++i) {

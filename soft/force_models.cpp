@@ -5,7 +5,7 @@ namespace sinew {
 
 const std::vector<const ForceModel*>& force_models() {
     // Springs before pressure: the order the integrators summed them in before the table (bit for bit).
-    static const std::vector<const ForceModel*> models = {&kSpringForces, &kPressureForces};
+    static const std::vector<const ForceModel*> models = {&kSpringForces, &kPressureForces, &kFemForces};
     return models;
 }
 

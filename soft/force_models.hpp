@@ -3,10 +3,11 @@
 // pointers: whether a body has it, its forces at a state, and for implicit Euler its linearisation
 // (forces, its share of the right-hand side and of the diagonal blocks, and its part of the matrix-free
 // product). The integrators loop over the models a body has and know none of them, so a new force model
-// (tetrahedral FEM) is its own files and one row in soft/force_models.cpp.
+// is its own files and one row in soft/force_models.cpp.
 //
-// Models today: springs (the body's links read as damped Hooke springs; Baraff & Witkin 1998) and
-// Matyka's pressure (explicit in every integrator: it adds forces and no blocks). The position-based
+// Models today: springs (the body's links read as damped Hooke springs; Baraff & Witkin 1998),
+// Matyka's pressure (explicit in every integrator: it adds forces and no blocks) and tetrahedral FEM
+// (Müller & Gross 2004's warped stiffness, assembled block-sparse; soft/fem_forces.cpp). The position-based
 // integrators read the links their own way (Verlet: Jakobsen's constraints; fast mass-spring: Liu's
 // local/global springs) and are not force-based.
 #pragma once
@@ -45,6 +46,8 @@ struct ForceModel {
     /// Implicit Euler: q += (the model's part of the system matrix) u, after prepare_implicit.
     void (*add_implicit_product)(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u,
                                  std::vector<Vec3>& q);
+    /// Once per step before any force is evaluated, with the step h (FEM's plasticity); nullptr: none.
+    void (*begin_step)(SoftBody& b, Real h) = nullptr;
 };
 
 /// Every force model, in the order the integrators apply them.
@@ -54,5 +57,7 @@ const std::vector<const ForceModel*>& force_models();
 extern const ForceModel kSpringForces;
 /// Matyka's pressure (soft/pressure.cpp).
 extern const ForceModel kPressureForces;
+/// Tetrahedral FEM, linear or stiffness-warped (soft/fem_forces.cpp).
+extern const ForceModel kFemForces;
 
 }  // namespace sinew

@@ -88,6 +88,8 @@ void step_implicit_euler(SoftBody& b, Real h) {
     if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
     ImplicitEulerCache& c = *b.implicit_cache;
     c.resize(n, m);
+    for (const ForceModel* model : force_models())
+        if (model->begin_step && model->present(b)) model->begin_step(b, h);
 
     const Real lambda = b.def.implicit_lambda;
     const Real hl = h * lambda;        // coefficient of ∂f/∂v in the matrix

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "soft/fem_elements.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "engine/core/aabb.hpp"
+#include "soft/fem_material.hpp"
 #include "soft/particles.hpp"
 
 namespace sinew {
@@ -83,6 +84,10 @@ struct SoftBodyDef {
     std::vector<Real> masses;               ///< kg per particle (> 0), same size as positions
     std::vector<Link> links;
     std::vector<std::uint32_t> triangles;   ///< 3 per triangle, counter-clockwise seen from outside
+    /// Tetrahedral FEM (soft/tet_mesh.hpp): 4 particles per tet, positively oriented, the positions the
+    /// rest shape. A body with tets is an FEM body: its elements are a force model of the force-based
+    /// methods (explicit, semi-implicit, implicit); `triangles` should be its boundary (the builder sets it).
+    std::vector<std::uint32_t> tets;
     std::vector<std::uint32_t> pinned;      ///< particles fixed in space (inverse mass 0)
     std::vector<Attachment> attachments;    ///< particles following rigid bodies
     Vec3 initial_velocity = Vec3::Zero();
@@ -101,6 +106,7 @@ struct SoftBodyDef {
     Real restitution = 0;       ///< [0, 1]
     Real thickness = Real(0.01);  ///< particle radius for collisions (m), > 0
     Real gravity_scale = 1;
+    FemMaterial fem;            ///< the elements' material, read when the body has tets
     bool allow_sleep = true;
     std::uint64_t user_data = 0;
 };
@@ -116,6 +122,7 @@ struct SoftBodyId {
 
 struct ImplicitEulerCache;   // soft/implicit_euler.cpp
 struct FastMassSpringCache;  // soft/fast_mass_spring.cpp
+struct FemState;             // soft/fem_elements.hpp
 
 /// A live soft body. Integrators and the soft system work on it directly.
 struct SoftBody {
@@ -138,6 +145,8 @@ struct SoftBody {
     Real sleep_timer = 0;
     std::unique_ptr<ImplicitEulerCache> implicit_cache;
     std::unique_ptr<FastMassSpringCache> fms_cache;
+    /// The tets' rest data, rotations, plastic strain and warped stiffness (null without tets).
+    std::unique_ptr<FemState> fem;
 
     /// Signed volume enclosed by the triangles (divergence theorem), m^3.
     Real volume() const;

@@ -5,6 +5,7 @@
 
 #include "engine/core/format.hpp"
 #include "soft/soft_integrators.hpp"
+#include "soft/tet_mesh.hpp"
 
 namespace sinew {
 namespace {
@@ -74,6 +75,23 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     require_range(d.restitution, 0, 1, "restitution");
     if (!(d.thickness > 0 && std::isfinite(d.thickness))) fail("thickness must be > 0 and finite, got " + to_text(d.thickness));
     require_finite(d.gravity_scale, "gravity_scale");
+    if (!d.tets.empty()) {
+        if (d.method != SoftMethod::ExplicitEuler && d.method != SoftMethod::SemiImplicitEuler && d.method != SoftMethod::ImplicitEuler)
+            fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") + soft_method_name(d.method));
+        const FemMaterial& m = d.fem;
+        if (!(m.young > 0 && std::isfinite(m.young))) fail("fem.young must be > 0 and finite, got " + to_text(m.young));
+        if (!(m.poisson > -1 && m.poisson < Real(0.5)))
+            fail("fem.poisson must be in (-1, 0.5) (0.5 is incompressible, where the elements lock), got " + to_text(m.poisson));
+        require_range(m.density, 0, kRealMax, "fem.density");
+        require_range(m.mass_damping, 0, kRealMax, "fem.mass_damping");
+        require_range(m.stiffness_damping, 0, kRealMax, "fem.stiffness_damping");
+        require_range(m.yield, 0, kRealMax, "fem.yield");
+        require_range(m.creep, 0, kRealMax, "fem.creep");
+        require_range(m.max_plastic, 0, kRealMax, "fem.max_plastic");
+        const int r = static_cast<int>(m.rotation);
+        if (r < 0 || r >= static_cast<int>(FemRotation::Count)) fail("fem.rotation = " + std::to_string(r) + " is not a rotation method");
+        check_tet_mesh(d.positions, d.tets, "soft body: tets");
+    }
     if (d.pressure > 0) {
         if (d.triangles.empty()) fail("pressure = " + to_text(d.pressure) + " needs a closed triangle surface, got none");
         const Real v = enclosed_volume(d.triangles, d.positions);

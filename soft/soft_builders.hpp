@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "soft/soft_body.hpp"
+#include "soft/tet_mesh.hpp"
 
 namespace sinew {
 
@@ -58,5 +59,11 @@ SoftBodyDef make_icosphere(const Vec3& centre, Real radius, int subdivisions, Re
 /// Mass spread evenly. Throws SoftError for an index out of range or a degenerate (zero-area) triangle.
 SoftBodyDef make_mesh_body(const std::vector<Vec3>& vertices, const std::vector<std::uint32_t>& indices,
                            int link_distance, Real total_mass, const LinkMaterial& m, SoftBodyDef base = {});
+
+/// An FEM body from a tet mesh (soft/tet_mesh.hpp): the mesh is checked (check_tet_mesh), its nodes become
+/// the particles with lumped masses ρ V / 4 from base.fem.density, its tets the elements, its boundary the
+/// surface triangles. The method must be force-based (explicit, semi-implicit or implicit; base.method
+/// Verlet, the default, becomes implicit).
+SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base = {});
 
 }  // namespace sinew

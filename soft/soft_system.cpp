@@ -6,7 +6,9 @@
 #include <string>
 
 #include "engine/core/format.hpp"
+#include "soft/fem_elements.hpp"
 #include "soft/soft_body_validate.hpp"
+#include "soft/tet_mesh.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/soft_methods.hpp"
 #include "soft/solver_caches.hpp"
@@ -39,6 +41,13 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     for (std::size_t i = 0; i < n; ++i)
         if (b.p.inv_mass[i] == 0) b.p.v[i].setZero();
     b.links = std::move(def.links);
+    if (!def.tets.empty()) {
+        // FEM: the rest shape is the positions given; the boundary is the surface unless the caller gave one.
+        b.fem = make_fem_state(b.p.x, def.tets, def.fem);
+        if (def.triangles.empty()) def.triangles = boundary_triangles(def.tets);
+        def.tets.clear();
+        def.tets.shrink_to_fit();
+    }
     b.triangles = std::move(def.triangles);
     b.attachments = std::move(def.attachments);
     b.rest_volume = b.triangles.empty() ? Real(0) : std::max(Real(0), enclosed_volume(b.triangles, b.p.x));

@@ -1,0 +1,73 @@
+// A symmetric sparse matrix of 3x3 blocks, one block row per particle, with its pattern built once from
+// the elements that couple particles (the tets of an FEM body): compressed rows, both triangles stored so
+// the product is one pass over the rows. Each element keeps the positions of its blocks in the value
+// array, so assembling adds into fixed places and allocates nothing.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "engine/core/math.hpp"
+
+namespace sinew {
+
+struct BlockSparse3 {
+    std::vector<std::uint32_t> row_start;  ///< n + 1 offsets into col and the blocks
+    std::vector<std::uint32_t> col;        ///< the column (particle) of each block, ascending in a row
+    std::vector<Mat3> block;               ///< the values
+    std::vector<std::uint32_t> diagonal;   ///< per row, the index of its diagonal block
+
+    std::size_t rows() const { return row_start.empty() ? 0 : row_start.size() - 1; }
+
+    /// The pattern of n rows from elements of 4 particles each (tets: 4 per element), and per element its
+    /// 16 block indices, row-major (a, b) for a, b in 0..3.
+    void build_pattern(std::size_t n, const std::vector<std::uint32_t>& elements,
+                       std::vector<std::array<std::uint32_t, 16>>& element_blocks) {
+        std::vector<std::vector<std::uint32_t>> adjacent(n);
+        const std::size_t m = elements.size() / 4;
+        for (std::size_t e = 0; e < m; ++e)
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b) adjacent[elements[4 * e + a]].push_back(elements[4 * e + b]);
+        row_start.assign(n + 1, 0);
+        col.clear();
+        diagonal.assign(n, 0);
+        for (std::size_t i = 0; i < n; ++i) {
+            std::vector<std::uint32_t>& r = adjacent[i];
+            r.push_back(std::uint32_t(i));
+            std::sort(r.begin(), r.end());
+            r.erase(std::unique(r.begin(), r.end()), r.end());
+            for (const std::uint32_t j : r) {
+                if (j == i) diagonal[i] = std::uint32_t(col.size());
+                col.push_back(j);
+            }
+            row_start[i + 1] = std::uint32_t(col.size());
+        }
+        block.assign(col.size(), Mat3::Zero());
+        element_blocks.resize(m);
+        for (std::size_t e = 0; e < m; ++e)
+            for (int a = 0; a < 4; ++a) {
+                const std::uint32_t i = elements[4 * e + a];
+                for (int b = 0; b < 4; ++b) {
+                    const std::uint32_t j = elements[4 * e + b];
+                    const auto begin = col.begin() + row_start[i], end = col.begin() + row_start[i + 1];
+                    element_blocks[e][4 * a + b] = std::uint32_t(std::lower_bound(begin, end, j) - col.begin());
+                }
+            }
+    }
+
+    void set_zero() { std::fill(block.begin(), block.end(), Mat3::Zero()); }
+
+    /// q += s A u.
+    void add_product(const std::vector<Vec3>& u, Real s, std::vector<Vec3>& q) const {
+        const std::size_t n = rows();
+        for (std::size_t i = 0; i < n; ++i) {
+            Vec3 sum = Vec3::Zero();
+            for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) sum.noalias() += block[k] * u[col[k]];
+            q[i] += s * sum;
+        }
+    }
+};
+
+}  // namespace sinew

@@ -1,0 +1,22 @@
+// An FEM body from a tet mesh (soft/soft_builders.hpp).
+#include "soft/builder_common.hpp"
+#include "soft/soft_builders.hpp"
+
+namespace sinew {
+
+SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base) {
+    const char* where = "make_tet_body";
+    check_tet_mesh(mesh.nodes, mesh.tets, where);
+    builder::check_positive(where, "fem.density", base.fem.density);
+    SoftBodyDef d = std::move(base);
+    builder::reset_geometry(d);
+    d.tets.clear();
+    if (d.method == SoftMethod::Verlet) d.method = SoftMethod::ImplicitEuler;
+    d.positions = mesh.nodes;
+    d.masses = lumped_masses(mesh.nodes, mesh.tets, d.fem.density);
+    d.tets = mesh.tets;
+    d.triangles = boundary_triangles(mesh.tets);
+    return d;
+}
+
+}  // namespace sinew

@@ -1,0 +1,63 @@
+// Tetrahedral meshes for FEM bodies: the structured box builder, the checks every mesh passes before a
+// body is built from it, the boundary surface, lumped masses, and loaders for TetGen's .node/.ele and
+// gmsh's .msh files (soft/tet_mesh_io.cpp). A tetrahedron (a, b, c, d) is positively oriented when
+// (b - a) · ((c - a) × (d - a)) > 0; every mesh here is.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/core/math.hpp"
+
+namespace sinew {
+
+struct TetMesh {
+    std::vector<Vec3> nodes;          ///< m
+    std::vector<std::uint32_t> tets;  ///< 4 node indices per tetrahedron, positively oriented
+    std::size_t tet_count() const { return tets.size() / 4; }
+};
+
+/// Signed volume (b - a) · ((c - a) × (d - a)) / 6 (m³).
+inline Real tet_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    return (b - a).dot((c - a).cross(d - a)) / Real(6);
+}
+
+/// How each hexahedron of a structured box is cut into tetrahedra.
+enum class HexSplit : std::uint8_t {
+    Five,  ///< 4 corner tets and a central one; the cut alternates between neighbouring cells
+    Six,   ///< Kuhn's 6 tets around a cell diagonal, each cell mirrored by the parity of its index
+};
+
+/// A box from `min_corner` of extents `size`, cut into nx × ny × nz hexahedra and each into tets; the cuts
+/// are mirrored from cell to cell so the faces match and the mesh is symmetric about its mid-planes when
+/// the counts are even. Node (i, j, k) is i + (nx + 1) (j + (ny + 1) k). Throws SoftError for counts < 1
+/// or a size that is not positive.
+TetMesh make_tet_box(const Vec3& min_corner, const Vec3& size, int nx, int ny, int nz, HexSplit split = HexSplit::Five);
+
+/// Checks a mesh before a body is built from it and throws SoftError naming the first problem:
+/// a tet count that is not a multiple of 4, an index out of range, a non-finite node, a tet with
+/// non-positive or degenerate volume (below 1e-6 of its longest edge cubed; the message gives the element,
+/// its nodes and its volume), two nodes at the same place, a node no tet uses, a face shared by more than
+/// two tets, or a boundary that is not a closed 2-manifold (an edge on other than two boundary faces).
+/// `where` prefixes the message (e.g. the file name).
+void check_tet_mesh(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& tets, const std::string& where);
+
+/// The faces that belong to exactly one tet, 3 indices each, counter-clockwise seen from outside.
+std::vector<std::uint32_t> boundary_triangles(const std::vector<std::uint32_t>& tets);
+
+/// Lumped masses: each node gets a quarter of ρ V of every tet it belongs to (they sum to ρ V_mesh).
+std::vector<Real> lumped_masses(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& tets, Real density);
+
+/// Loads TetGen's `<base>.node` and `<base>.ele` (0- or 1-based, comments with #, extra attributes and
+/// markers ignored; 10-node tets keep their 4 corners). Throws SoftError naming the file and line.
+TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path);
+/// Loads a gmsh .msh file, ASCII format 2.2 or 4.1: its nodes and its 4-node tetrahedra (other elements
+/// are skipped; unused nodes are dropped). Throws SoftError naming the file and line.
+TetMesh load_gmsh(const std::string& path);
+
+/// Orients a loaded mesh: if every tet is negatively oriented (a file format's convention), two nodes of
+/// each are swapped; mixed orientations are left for check_tet_mesh to report.
+void orient_tets(const std::vector<Vec3>& nodes, std::vector<std::uint32_t>& tets);
+
+}  // namespace sinew
