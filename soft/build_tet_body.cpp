@@ -11,7 +11,6 @@ SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base) {
     SoftBodyDef d = std::move(base);
     builder::reset_geometry(d);
     d.tets.clear();
-    if (d.method == SoftMethod::Verlet) d.method = SoftMethod::ImplicitEuler;
     d.positions = mesh.nodes;
     d.masses = lumped_masses(mesh.nodes, mesh.tets, d.fem.density);
     d.tets = mesh.tets;

@@ -26,8 +26,8 @@ void check_step(Real h, const char* who) {
 }
 
 // Total force of state n into the cache (which doubles as the Euler integrators' scratch, see
-// solver_caches.hpp): external forces, gravity as m g (pinned particles' entries are never read), springs,
-// and pressure (explicit in every integrator, only when the body has it: soft/pressure.cpp).
+// solver_caches.hpp): external forces, gravity as m g (pinned particles' entries are never read), and each
+// force model the body has (springs, pressure, FEM: soft/force_models.hpp), after their begin_step.
 std::vector<Vec3>& total_forces(SoftBody& b, Real h) {
     if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
     ImplicitEulerCache& c = *b.implicit_cache;

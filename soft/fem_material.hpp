@@ -3,6 +3,7 @@
 // element rotation that warps the stiffness (Müller & Gross 2004) and O'Brien 2002's plasticity rule.
 #pragma once
 
+#include <array>
 #include <cstdint>
 
 #include "engine/core/math.hpp"
@@ -13,13 +14,16 @@ namespace sinew {
 /// stiffness warping, f_e = -R_e K_e (R_eᵀ x_e - x⁰_e)).
 enum class FemRotation : std::uint8_t {
     Linear,  ///< R_e = I: plain linear FEM (Cauchy strain), which inflates under rotation (the baseline)
-    Polar,   ///< the rotation of F's polar decomposition; det F < 0: Nesme 2005's flip of the smallest axis
+    Polar,   ///< the rotation of F's polar decomposition; det F <= 0: Nesme 2005's flip of the smallest axis
     QR,      ///< Gram-Schmidt of F's first two columns, the third their cross product (Nesme 2005)
     Count
 };
 const char* fem_rotation_name(FemRotation r);
 /// Parses "linear", "polar", "qr"; returns false if unknown.
 bool parse_fem_rotation(const char* text, FemRotation& out);
+
+/// A symmetric strain in an element's rest frame: xx, yy, zz, xy, xz, yz (tensor components).
+using Strain6 = std::array<Real, 6>;
 
 struct FemMaterial {
     Real young = Real(1e5);    ///< E (Pa), > 0
@@ -31,7 +35,7 @@ struct FemMaterial {
     // strain, if ‖ε_e‖ > yield then ε_p += h creep ε_e; ‖ε_p‖ is capped at max_plastic. yield = 0 and
     // creep = 0: elastic.
     Real yield = 0;        ///< strain norm (Frobenius, dimensionless) above which the element creeps
-    Real creep = 0;        ///< rate (1/s) at which the plastic strain takes up the elastic strain; h creep <= 1
+    Real creep = 0;        ///< rate (1/s) at which the plastic strain takes up the elastic strain (h creep capped at 1)
     Real max_plastic = 0;  ///< cap on ‖ε_p‖ (dimensionless); 0 with creep > 0 means no plastic strain
     FemRotation rotation = FemRotation::Polar;
 

@@ -1,7 +1,7 @@
 // Implicit Euler for force-based soft bodies: one Newton step per frame (Baraff & Witkin 1998), the linear
-// system solved by block-Jacobi preconditioned conjugate gradient (soft/block_cg.hpp), matrix-free over
-// the force models' elements (Volino & Magnenat-Thalmann, seed 003 §2.3: the products are accumulated
-// link by link, no matrix is built).
+// system solved by block-Jacobi preconditioned conjugate gradient (soft/block_cg.hpp). Each force model
+// supplies its part of the product: springs matrix-free, link by link (Volino & Magnenat-Thalmann, seed
+// 003 §2.3), FEM from its warped stiffness assembled once per step into a block-sparse matrix.
 // Equations: Baraff & Witkin 1998, Volino & Magnenat-Thalmann 2000; docs/theory.md#euler and
 // docs/theory.md#mass-spring-forces.
 //
@@ -113,7 +113,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     }
 
     // Each force model the body has adds its forces, its share of ∂f/∂x v_n and of the diagonal blocks
-    // (soft/force_models.hpp: springs, then pressure, which stays explicit).
+    // (soft/force_models.hpp: springs, pressure, which stays explicit, and FEM).
     ImplicitTerms terms;
     terms.h = h;
     terms.lambda = lambda;

@@ -1,5 +1,5 @@
-// Soft bodies made of particles: Jakobsen/Verlet constraint bodies and mass-spring bodies (cloth, ropes,
-// pressure bodies), their definitions, handles and runtime data.
+// Soft bodies made of particles: Jakobsen/Verlet constraint bodies, mass-spring bodies (cloth, ropes,
+// pressure bodies) and tetrahedral FEM solids (docs/fem.md), their definitions, handles and runtime data.
 //
 // One SoftBody holds its particles, its links (springs for mass-spring methods, distance constraints for
 // Verlet), its surface triangles (pressure, rendering), pins, attachments to rigid bodies and long-range
@@ -28,9 +28,9 @@ struct SoftError : std::invalid_argument {
 /// How a body's links act and how its particles are advanced.
 enum class SoftMethod : std::uint8_t {
     Verlet,             ///< Jakobsen 2003: Verlet integration, links relaxed as distance constraints
-    ExplicitEuler,      ///< springs; x += h v_n, v += h a(x_n, v_n) (unstable undamped at any h)
-    SemiImplicitEuler,  ///< springs; v += h a(x_n, v_n), x += h v_{n+1} (stable iff omega h < 2)
-    ImplicitEuler,      ///< springs; Baraff-Witkin 1998, one Newton step solved by preconditioned CG
+    ExplicitEuler,      ///< springs, FEM; x += h v_n, v += h a(x_n, v_n) (unstable undamped at any h)
+    SemiImplicitEuler,  ///< springs, FEM; v += h a(x_n, v_n), x += h v_{n+1} (stable iff omega h < 2)
+    ImplicitEuler,      ///< springs, FEM; Baraff-Witkin 1998, one Newton step solved by preconditioned CG
     FastMassSpring,     ///< springs; Liu 2013 local/global with a sparse Cholesky factored once
     Count
 };
@@ -88,6 +88,10 @@ struct SoftBodyDef {
     /// rest shape. A body with tets is an FEM body: its elements are a force model of the force-based
     /// methods (explicit, semi-implicit, implicit); `triangles` should be its boundary (the builder sets it).
     std::vector<std::uint32_t> tets;
+    /// FEM: the rest shape, one per particle; empty = `positions` (a saved, deformed body gives both).
+    std::vector<Vec3> rest_positions;
+    /// FEM: each tet's plastic strain to start from; empty = none (a saved plastic body gives it).
+    std::vector<Strain6> plastic_strain;
     std::vector<std::uint32_t> pinned;      ///< particles fixed in space (inverse mass 0)
     std::vector<Attachment> attachments;    ///< particles following rigid bodies
     Vec3 initial_velocity = Vec3::Zero();

@@ -75,6 +75,8 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     require_range(d.restitution, 0, 1, "restitution");
     if (!(d.thickness > 0 && std::isfinite(d.thickness))) fail("thickness must be > 0 and finite, got " + to_text(d.thickness));
     require_finite(d.gravity_scale, "gravity_scale");
+    if (d.tets.empty() && (!d.rest_positions.empty() || !d.plastic_strain.empty()))
+        fail("rest_positions and plastic_strain belong to FEM bodies, and this one has no tets");
     if (!d.tets.empty()) {
         if (d.method != SoftMethod::ExplicitEuler && d.method != SoftMethod::SemiImplicitEuler && d.method != SoftMethod::ImplicitEuler)
             fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") + soft_method_name(d.method));
@@ -82,7 +84,7 @@ void validate_soft_body_def(const SoftBodyDef& d) {
         if (!(m.young > 0 && std::isfinite(m.young))) fail("fem.young must be > 0 and finite, got " + to_text(m.young));
         if (!(m.poisson > -1 && m.poisson < Real(0.5)))
             fail("fem.poisson must be in (-1, 0.5) (0.5 is incompressible, where the elements lock), got " + to_text(m.poisson));
-        require_range(m.density, 0, kRealMax, "fem.density");
+        if (!(m.density > 0 && std::isfinite(m.density))) fail("fem.density must be > 0 and finite, got " + to_text(m.density));
         require_range(m.mass_damping, 0, kRealMax, "fem.mass_damping");
         require_range(m.stiffness_damping, 0, kRealMax, "fem.stiffness_damping");
         require_range(m.yield, 0, kRealMax, "fem.yield");
@@ -90,7 +92,14 @@ void validate_soft_body_def(const SoftBodyDef& d) {
         require_range(m.max_plastic, 0, kRealMax, "fem.max_plastic");
         const int r = static_cast<int>(m.rotation);
         if (r < 0 || r >= static_cast<int>(FemRotation::Count)) fail("fem.rotation = " + std::to_string(r) + " is not a rotation method");
-        check_tet_mesh(d.positions, d.tets, "soft body: tets");
+        if (!d.rest_positions.empty() && d.rest_positions.size() != n)
+            fail("rest_positions has " + std::to_string(d.rest_positions.size()) + " entries for " + std::to_string(n) + " positions");
+        check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "soft body: tets");
+        if (!d.plastic_strain.empty() && d.plastic_strain.size() != d.tets.size() / 4)
+            fail("plastic_strain has " + std::to_string(d.plastic_strain.size()) + " entries for " + std::to_string(d.tets.size() / 4) + " tets");
+        for (std::size_t e = 0; e < d.plastic_strain.size(); ++e)
+            for (const Real x : d.plastic_strain[e])
+                if (!std::isfinite(x)) fail(at("plastic_strain", e) + " must be finite");
     }
     if (d.pressure > 0) {
         if (d.triangles.empty()) fail("pressure = " + to_text(d.pressure) + " needs a closed triangle surface, got none");

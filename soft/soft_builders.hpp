@@ -62,8 +62,8 @@ SoftBodyDef make_mesh_body(const std::vector<Vec3>& vertices, const std::vector<
 
 /// An FEM body from a tet mesh (soft/tet_mesh.hpp): the mesh is checked (check_tet_mesh), its nodes become
 /// the particles with lumped masses ρ V / 4 from base.fem.density, its tets the elements, its boundary the
-/// surface triangles. The method must be force-based (explicit, semi-implicit or implicit; base.method
-/// Verlet, the default, becomes implicit).
+/// surface triangles. The method must be force-based (explicit, semi-implicit or implicit: set
+/// base.method, whose default, Verlet, create_body refuses for tets).
 SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base = {});
 
 }  // namespace sinew

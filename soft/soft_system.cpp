@@ -43,10 +43,19 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     b.links = std::move(def.links);
     if (!def.tets.empty()) {
         // FEM: the rest shape is the positions given; the boundary is the surface unless the caller gave one.
-        b.fem = make_fem_state(b.p.x, def.tets, def.fem);
+        b.fem = make_fem_state(def.rest_positions.empty() ? b.p.x : def.rest_positions, def.tets, def.fem);
+        if (!def.plastic_strain.empty()) b.fem->plastic = def.plastic_strain;
+        if (!def.rest_positions.empty()) {
+            // A deformed body (a saved one): its polar rotations start converged, as its steps had left them.
+            const int cap = b.fem->polar_iterations;
+            b.fem->polar_iterations = 50;
+            fem_update_rotations(*b.fem, b.p.x, def.fem.rotation);
+            b.fem->polar_iterations = cap;
+        }
         if (def.triangles.empty()) def.triangles = boundary_triangles(def.tets);
-        def.tets.clear();
-        def.tets.shrink_to_fit();
+        def.tets = {};
+        def.rest_positions = {};
+        def.plastic_strain = {};
     }
     b.triangles = std::move(def.triangles);
     b.attachments = std::move(def.attachments);

@@ -126,8 +126,9 @@ TetMesh load_gmsh(const std::string& path) {
     const std::string version = r.read<std::string>(s, "the version");
     const int binary = r.read<int>(s, "the file type");
     if (binary != 0) r.fail("binary .msh files are not read: save as ASCII (gmsh -format msh41 or msh22 with Mesh.Binary=0)");
-    const bool v4 = version.rfind("4", 0) == 0;
-    if (!v4 && version.rfind("2", 0) != 0) r.fail("format version " + version + " (2.2 or 4.1 expected)");
+    // 2.x files share 2.2's layout; 4.0's node blocks differ from 4.1's and are not read.
+    const bool v4 = version == "4.1";
+    if (!v4 && version.rfind("2", 0) != 0) r.fail("format version " + version + " (2.2 or 4.1 expected; gmsh -format msh41 writes 4.1)");
     s = r.next("$EndMeshFormat");
     if (r.read<std::string>(s, "$EndMeshFormat") != "$EndMeshFormat") r.fail("expected $EndMeshFormat");
 
@@ -156,7 +157,8 @@ TetMesh load_gmsh(const std::string& path) {
                     }
                     for (const long long tag : tags) {
                         s = r.next("node coordinates");
-                        node_of_tag[tag] = std::uint32_t(all_nodes.size());
+                        if (!node_of_tag.emplace(tag, std::uint32_t(all_nodes.size())).second)
+                            r.fail("node tag " + std::to_string(tag) + " is defined twice");
                         all_nodes.push_back(r.read_point(s));
                     }
                 }
@@ -165,7 +167,8 @@ TetMesh load_gmsh(const std::string& path) {
                 for (long long i = 0; i < count; ++i) {
                     s = r.next("a node");
                     const long long tag = r.read<long long>(s, "a node tag");
-                    node_of_tag[tag] = std::uint32_t(all_nodes.size());
+                    if (!node_of_tag.emplace(tag, std::uint32_t(all_nodes.size())).second)
+                        r.fail("node tag " + std::to_string(tag) + " is defined twice");
                     all_nodes.push_back(r.read_point(s));
                 }
             }

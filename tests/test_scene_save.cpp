@@ -85,7 +85,8 @@ struct Case {
 const Case kCases[] = {{"demos/scenes/showcase-stacking.json", 20},
                        {"tests/data/scenes/good/joints.json", 30},
                        {"tests/data/scenes/good/soft-bodies.json", 2},
-                       {"demos/scenes/showcase-cloth.json", 30}};
+                       {"demos/scenes/showcase-cloth.json", 30},
+                       {"demos/scenes/showcase-fem.json", 40}};
 
 }  // namespace
 

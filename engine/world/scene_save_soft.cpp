@@ -7,6 +7,7 @@
 #include "engine/world/scene_json.hpp"
 #include "engine/world/scene.hpp"
 #include "engine/world/world.hpp"
+#include "soft/fem_elements.hpp"
 #include "soft/soft_integrators.hpp"
 
 namespace sinew::scene_save {
@@ -93,6 +94,37 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
         for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3)
             triangles.push_back(Json::array({b.triangles[t], b.triangles[t + 1], b.triangles[t + 2]}));
         j["triangles"] = std::move(triangles);
+    }
+
+    // FEM: the elements, the rest shape they measure strain from, the material, and any plastic strain.
+    if (b.fem) {
+        const FemState& s = *b.fem;
+        Json tets = Json::array(), rest = Json::array(), plastic = Json::array();
+        for (std::size_t t = 0; t + 3 < s.tets.size(); t += 4)
+            tets.push_back(Json::array({s.tets[t], s.tets[t + 1], s.tets[t + 2], s.tets[t + 3]}));
+        for (const Vec3& x : s.rest) rest.push_back(vec3(x));
+        bool plastic_any = false;
+        for (const Strain6& e : s.plastic) {
+            Json row = Json::array();
+            for (const Real x : e) {
+                row.push_back(number(x));
+                plastic_any = plastic_any || x != 0;
+            }
+            plastic.push_back(std::move(row));
+        }
+        j["tets"] = std::move(tets);
+        j["rest_positions"] = std::move(rest);
+        if (plastic_any) j["plastic_strain"] = std::move(plastic);
+        const FemMaterial& m = d.fem;
+        j["fem"] = Json::object({{"young", number(m.young)},
+                                 {"poisson", number(m.poisson)},
+                                 {"density", number(m.density)},
+                                 {"mass_damping", number(m.mass_damping)},
+                                 {"stiffness_damping", number(m.stiffness_damping)},
+                                 {"yield", number(m.yield)},
+                                 {"creep", number(m.creep)},
+                                 {"max_plastic", number(m.max_plastic)},
+                                 {"rotation", fem_rotation_name(m.rotation)}});
     }
 
     // Attached particles have inverse mass 0 like pinned ones; an attachment whose body is gone leaves

@@ -6,6 +6,7 @@
 #include "engine/world/scene_json.hpp"
 #include "soft/soft_builders.hpp"
 #include "soft/soft_integrators.hpp"
+#include "soft/tet_mesh.hpp"
 
 namespace sinew::scene_json {
 namespace {
@@ -47,6 +48,48 @@ void parse_material(const Node& body, SoftBodyDef& d) {
     d.friction = read_real(*n, "friction", d.friction, Range::NonNegative);
     d.restitution = read_real(*n, "restitution", d.restitution, Range::UnitInterval);
     d.thickness = read_real(*n, "thickness", d.thickness, Range::Positive);
+}
+
+// "fem": the elements' material (soft/fem_material.hpp); every bound create_body checks is checked here.
+void parse_fem(const Node& body, SoftBodyDef& d) {
+    std::optional<Node> n = body.find("fem");
+    if (!n) return;
+    n->allow_keys({"young", "poisson", "density", "mass_damping", "stiffness_damping", "yield", "creep", "max_plastic", "rotation"});
+    FemMaterial& m = d.fem;
+    m.young = read_real(*n, "young", m.young, Range::Positive);
+    m.poisson = read_real(*n, "poisson", m.poisson, Range::Any);
+    if (!(m.poisson > -1 && m.poisson < Real(0.5)))
+        n->get("poisson").fail("poisson must be in (-1, 0.5) (0.5 is incompressible, where linear tets lock), got " +
+                               n->get("poisson").json().dump());
+    m.density = read_real(*n, "density", m.density, Range::Positive);
+    m.mass_damping = read_real(*n, "mass_damping", m.mass_damping, Range::NonNegative);
+    m.stiffness_damping = read_real(*n, "stiffness_damping", m.stiffness_damping, Range::NonNegative);
+    m.yield = read_real(*n, "yield", m.yield, Range::NonNegative);
+    m.creep = read_real(*n, "creep", m.creep, Range::NonNegative);
+    m.max_plastic = read_real(*n, "max_plastic", m.max_plastic, Range::NonNegative);
+    m.rotation = read_enum_named(*n, "rotation", m.rotation, int(FemRotation::Count), fem_rotation_name);
+}
+
+std::filesystem::path scene_relative(const Node& b, const Node& path) {
+    std::filesystem::path p(path.string());
+    if (p.is_relative()) p = std::filesystem::path(b.ctx().dir) / p;
+    return p;
+}
+
+// A tet mesh file: gmsh's .msh, or TetGen's .node (its .ele beside it) or .ele.
+TetMesh load_tet_file(const Node& b, const Node& file) {
+    const std::filesystem::path p = scene_relative(b, file);
+    const std::string ext = p.extension().string();
+    try {
+        if (ext == ".msh") return load_gmsh(p.string());
+        if (ext == ".node" || ext == ".ele") {
+            std::filesystem::path base = p;
+            return load_tetgen(base.replace_extension(".node").string(), base.replace_extension(".ele").string());
+        }
+    } catch (const SoftError& e) {
+        file.fail(e.what());
+    }
+    file.fail("a tet mesh file is a gmsh .msh or a TetGen .node/.ele, got \"" + p.filename().string() + "\"");
 }
 
 Real total_mass(const Node& body) { return read_real(body, "mass", 1, Range::Positive); }
@@ -108,6 +151,23 @@ void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef
         out.def = make_particle_ragdoll(b.get("feet").vec3(), checked(b.get("height"), Range::Positive), total_mass(b), base);
     } else if (builder == "stick-box") {
         out.def = make_stick_box(b.get("center").vec3(), b.get("half_extents").vec3(), total_mass(b), base);
+    } else if (builder == "tet-box") {
+        const Node cells = b.get("cells");
+        if (cells.array_size() != 3) cells.fail("cells must be [nx, ny, nz], got " + describe(cells.json()));
+        const int nx = checked_int(cells.item(0), 1, 1000), ny = checked_int(cells.item(1), 1, 1000),
+                  nz = checked_int(cells.item(2), 1, 1000);
+        const Vec3 size = b.get("size").vec3();
+        if (!(size.minCoeff() > 0)) b.get("size").fail("size must be > 0 along every axis");
+        const Vec3 min_corner = b.find("center") ? Vec3(b.get("center").vec3() - size / 2) : b.get("min_corner").vec3();
+        if (b.find("center") && b.find("min_corner")) b.get("center").fail("give either center or min_corner, not both");
+        const int split = read_int(b, "split", 5, 5, 6);
+        out.def = make_tet_body(make_tet_box(min_corner, size, nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six), base);
+    } else if (builder == "tet-mesh") {
+        TetMesh mesh = load_tet_file(b, b.get("file"));
+        const Real scale = read_real(b, "scale", 1, Range::Positive);
+        const Vec3 offset = read_vec3(b, "position", Vec3::Zero());
+        for (Vec3& v : mesh.nodes) v = v * scale + offset;
+        out.def = make_tet_body(mesh, base);
     } else if (builder == "explicit") {
         build_explicit(b, base, out);
     }
@@ -188,6 +248,39 @@ void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out) 
             for (std::size_t c = 0; c < 3; ++c) d.triangles.push_back(particle_index(tri.item(c), n));
         }
     }
+    if (auto tets = b.find("tets")) {
+        const std::size_t count = tets->array_size();
+        d.tets.reserve(4 * count);
+        for (std::size_t t = 0; t < count; ++t) {
+            const Node tet = tets->item(t);
+            if (!tet.json().is_array() || tet.json().size() != 4) tet.type_error("[a, b, c, d] (an array of 4 particle indices)");
+            for (std::size_t c = 0; c < 4; ++c) d.tets.push_back(particle_index(tet.item(c), n));
+        }
+        if (auto rest = b.find("rest_positions")) {
+            if (rest->array_size() != n)
+                rest->fail("rest_positions has " + std::to_string(rest->array_size()) + " entries for " + std::to_string(n) + " positions");
+            for (std::size_t i = 0; i < n; ++i) d.rest_positions.push_back(rest->item(i).vec3());
+        }
+        if (auto plastic = b.find("plastic_strain")) {
+            if (plastic->array_size() != count)
+                plastic->fail("plastic_strain has " + std::to_string(plastic->array_size()) + " entries for " + std::to_string(count) + " tets");
+            for (std::size_t t = 0; t < count; ++t) {
+                const Node e = plastic->item(t);
+                if (e.array_size() != 6) e.type_error("[xx, yy, zz, xy, xz, yz] (6 numbers)");
+                Strain6 s;
+                for (std::size_t c = 0; c < 6; ++c) s[c] = checked(e.item(c), Range::Any);
+                d.plastic_strain.push_back(s);
+            }
+        }
+        // The mesh checks (volumes, duplicates, manifold boundary), reported at "tets".
+        try {
+            check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "tets");
+        } catch (const SoftError& e) {
+            tets->fail(e.what());
+        }
+    } else if (b.find("rest_positions") || b.find("plastic_strain")) {
+        b.get(b.find("rest_positions") ? "rest_positions" : "plastic_strain").fail("belongs to FEM bodies: give \"tets\" too");
+    }
     // Matyka's pressure needs a closed surface around positive volume (SoftSystem checks it again).
     if (d.pressure > 0) {
         const Node pressure = b.get("material").get("pressure");
@@ -199,7 +292,7 @@ void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out) 
     }
 }
 
-const char* const kBuilders[] = {"cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "explicit"};
+const char* const kBuilders[] = {"cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "tet-box", "tet-mesh", "explicit"};
 
 }  // namespace
 
@@ -224,8 +317,14 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         const bool is_explicit = out.builder == "explicit";
         std::vector<const char*> keys = {"name", "builder", "method", "solver", "material", "pinned", "attachments",
                                          "velocity", "gravity_scale", "allow_sleep", "user_data"};
-        if (!is_explicit) keys.insert(keys.end(), {"mass", "links"});
-        if (is_explicit) keys.insert(keys.end(), {"positions", "masses", "velocities", "links", "triangles"});
+        const bool is_fem = out.builder == "tet-box" || out.builder == "tet-mesh";
+        if (!is_explicit && !is_fem) keys.insert(keys.end(), {"mass", "links"});
+        if (is_explicit)
+            keys.insert(keys.end(), {"positions", "masses", "velocities", "links", "triangles", "tets", "rest_positions", "plastic_strain"});
+        if (is_fem || is_explicit) keys.push_back("fem");
+        keys.push_back("pinned_box");
+        if (out.builder == "tet-box") keys.insert(keys.end(), {"min_corner", "center", "size", "cells", "split"});
+        if (out.builder == "tet-mesh") keys.insert(keys.end(), {"file", "scale", "position"});
         if (out.builder == "cloth") keys.insert(keys.end(), {"nodes", "origin", "edge_u", "edge_v", "shear", "bend", "pinned_nodes"});
         if (out.builder == "rope") keys.insert(keys.end(), {"from", "to", "segments"});
         if (out.builder == "icosphere") keys.insert(keys.end(), {"center", "radius", "subdivisions"});
@@ -245,8 +344,13 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         }
 
         SoftBodyDef base;
-        base.method = read_enum_named(b, "method", SoftMethod::Verlet, int(SoftMethod::Count), soft_method_name);
+        // FEM bodies need a force-based method: theirs defaults to implicit Euler.
+        base.method = read_enum_named(b, "method", is_fem ? SoftMethod::ImplicitEuler : SoftMethod::Verlet, int(SoftMethod::Count),
+                                      soft_method_name);
+        // A CG cap of 10 (the Verlet relaxations' default) leaves a stiff solid's step far from converged.
+        if (is_fem) base.iterations = 100;
         parse_solver(b, base);
+        parse_fem(b, base);
         parse_material(b, base);
         base.initial_velocity = read_vec3(b, "velocity", Vec3::Zero());
         base.gravity_scale = read_real(b, "gravity_scale", 1, Range::Any);
@@ -255,18 +359,36 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
             if (!n->json().is_number_unsigned()) n->type_error("an integer >= 0");
             base.user_data = n->json().get<std::uint64_t>();
         }
-        if (!is_explicit) out.links = parse_link_material(b);
+        if (!is_explicit && !is_fem) out.links = parse_link_material(b);
         try {
             build_geometry(b, out.builder, base, out);
         } catch (const SoftError& e) {
             b.fail(e.what());
         }
+        if (!out.def.tets.empty() && out.def.method != SoftMethod::ExplicitEuler && out.def.method != SoftMethod::SemiImplicitEuler &&
+            out.def.method != SoftMethod::ImplicitEuler)
+            (b.find("method") ? b.get("method") : b)
+                .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") +
+                      soft_method_name(out.def.method));
         const std::size_t n = out.def.positions.size();
         if (auto pins = b.find("pinned")) {
             for (std::size_t i = 0; i < pins->array_size(); ++i) {
                 const Node pin = pins->item(i);
                 out.def.pinned.push_back(static_cast<std::uint32_t>(checked_int(pin, 0, static_cast<long long>(n) - 1)));
             }
+        }
+        if (auto box = b.find("pinned_box")) {
+            // Every particle inside the box (a clamped end, a fixed base).
+            box->allow_keys({"min", "max"});
+            const Vec3 lo = box->get("min").vec3(), hi = box->get("max").vec3();
+            if (!(lo.array() <= hi.array()).all()) box->get("max").fail("max must be >= min along every axis");
+            std::size_t pinned = 0;
+            for (std::uint32_t i = 0; i < n; ++i)
+                if ((out.def.positions[i].array() >= lo.array()).all() && (out.def.positions[i].array() <= hi.array()).all()) {
+                    out.def.pinned.push_back(i);
+                    ++pinned;
+                }
+            if (pinned == 0) box->fail("pinned_box holds none of the body's " + std::to_string(n) + " particles");
         }
         if (auto atts = b.find("attachments")) {
             for (std::size_t i = 0; i < atts->array_size(); ++i) {
