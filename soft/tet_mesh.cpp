@@ -60,6 +60,9 @@ TetMesh make_tet_box(const Vec3& min_corner, const Vec3& size, int nx, int ny, i
     if (nx < 1 || ny < 1 || nz < 1 || nx > 1000 || ny > 1000 || nz > 1000)
         fail(where, "cell counts must be in [1, 1000], got " + std::to_string(nx) + " x " + std::to_string(ny) + " x " +
                         std::to_string(nz));
+    if (double(nx) * ny * nz > 2e6)
+        fail(where, std::to_string(nx) + " x " + std::to_string(ny) + " x " + std::to_string(nz) +
+                        " cells is more than 2e6 (10-12 million tets)");
     TetMesh m;
     const int sx = nx + 1, sy = ny + 1, sz = nz + 1;
     m.nodes.reserve(std::size_t(sx) * sy * sz);

@@ -32,7 +32,7 @@ enum class HexSplit : std::uint8_t {
 /// A box from `min_corner` of extents `size`, cut into nx × ny × nz hexahedra and each into tets; the cuts
 /// are mirrored from cell to cell so the faces match and the mesh is symmetric about its mid-planes when
 /// the counts are even. Node (i, j, k) is i + (nx + 1) (j + (ny + 1) k). Throws SoftError for counts outside
-/// [1, 1000], a size that is not finite and positive, or a corner that is not finite.
+/// [1, 1000] or above 2e6 cells in all, a size that is not finite and positive, or a corner that is not finite.
 TetMesh make_tet_box(const Vec3& min_corner, const Vec3& size, int nx, int ny, int nz, HexSplit split = HexSplit::Five);
 
 /// Checks a mesh before a body is built from it and throws SoftError naming the first problem:

@@ -51,12 +51,18 @@ struct SceneJoint {
 struct SceneSoftBody {
     std::string name;
     std::string json_path;      ///< "/soft_bodies/2"
-    std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "explicit"
+    std::string builder;        ///< "cloth", "rope", "icosphere", "mesh", "ragdoll", "stick-box", "tet-box", "tet-mesh", "explicit"
     ClothGridDesc cloth;        ///< builder == "cloth": the grid as described
     std::vector<std::uint32_t> cloth_pinned_corners;  ///< builder == "cloth": pinned node indices
     Vec3 icosphere_center = Vec3::Zero();  ///< builder == "icosphere"
     Real icosphere_radius = 0;
     int icosphere_subdivisions = 0;
+    /// builder == "tet-box": the box as described (the FEM benchmark refines its cells).
+    struct TetBox {
+        Vec3 min_corner = Vec3::Zero(), size = Vec3::Ones();
+        int cells[3] = {1, 1, 1};
+        int split = 5;  ///< tets per cell
+    } tet_box;
     LinkMaterial links;         ///< the link material the builder used
     SoftBodyDef def;            ///< geometry, method, solver settings, material
     /// Attachments to scene bodies: def.attachments[k].target is filled in by build_world from

@@ -158,9 +158,11 @@ void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef
                   nz = checked_int(cells.item(2), 1, 1000);
         const Vec3 size = b.get("size").vec3();
         if (!(size.minCoeff() > 0)) b.get("size").fail("size must be > 0 along every axis");
-        const Vec3 min_corner = b.find("center") ? Vec3(b.get("center").vec3() - size / 2) : b.get("min_corner").vec3();
         if (b.find("center") && b.find("min_corner")) b.get("center").fail("give either center or min_corner, not both");
+        if (!b.find("center") && !b.find("min_corner")) b.fail("a tet-box needs \"center\" or \"min_corner\"");
+        const Vec3 min_corner = b.find("center") ? Vec3(b.get("center").vec3() - size / 2) : b.get("min_corner").vec3();
         const int split = read_int(b, "split", 5, 5, 6);
+        out.tet_box = {min_corner, size, {nx, ny, nz}, split};
         out.def = make_tet_body(make_tet_box(min_corner, size, nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six), base);
     } else if (builder == "tet-mesh") {
         TetMesh mesh = load_tet_file(b, b.get("file"));
@@ -317,11 +319,12 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         const bool is_explicit = out.builder == "explicit";
         std::vector<const char*> keys = {"name", "builder", "method", "solver", "material", "pinned", "attachments",
                                          "velocity", "gravity_scale", "allow_sleep", "user_data"};
-        const bool is_fem = out.builder == "tet-box" || out.builder == "tet-mesh";
+        const bool is_fem = out.builder == "tet-box" || out.builder == "tet-mesh" || (is_explicit && b.find("tets"));
         if (!is_explicit && !is_fem) keys.insert(keys.end(), {"mass", "links"});
+        // "fem" is a key of FEM bodies only (an explicit body is one when it has "tets").
         if (is_explicit)
             keys.insert(keys.end(), {"positions", "masses", "velocities", "links", "triangles", "tets", "rest_positions", "plastic_strain"});
-        if (is_fem || is_explicit) keys.push_back("fem");
+        if (is_fem) keys.push_back("fem");
         keys.push_back("pinned_box");
         if (out.builder == "tet-box") keys.insert(keys.end(), {"min_corner", "center", "size", "cells", "split"});
         if (out.builder == "tet-mesh") keys.insert(keys.end(), {"file", "scale", "position"});

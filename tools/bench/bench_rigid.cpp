@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "tools/bench/bench_cloth.hpp"
+#include "tools/bench/bench_fem.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
 
@@ -206,6 +207,7 @@ std::vector<std::string> split_list(const std::string& s) {
 int cmd_bench(const std::vector<std::string>& args) {
     using tool::UsageError;
     if (!args.empty() && args[0] == "cloth") return cmd_bench_cloth(args);  // tools/bench/bench_cloth.cpp
+    if (!args.empty() && args[0] == "fem") return cmd_bench_fem(args);  // tools/bench/bench_fem.cpp
     if (args.empty() || args[0] != "rigid") throw UsageError("which suite? 'rigid' or 'cloth'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10;
@@ -328,5 +330,17 @@ const Command bench_command = {
     "step), peak_stretch (the same over the whole run), volume_ratio (closed bodies: volume / rest\n"
     "volume), max_penetration (m, into the sphere or ground at the last step), finite.\n"
     "--chart draws stretch against time per scene (gnuplot); --markdown rewrites the bench-cloth section.\n"
-    "--clock: per-step time as thread CPU time (default, robust on a busy machine) or wall time.\n"};
+    "--clock: per-step time as thread CPU time (default, robust on a busy machine) or wall time.\n"
+    "\n"
+    "usage: sinew bench fem [--scenes a,b,...] [--engines e,e/variant,...] [--steps N]\n"
+    "                       [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"
+    "\n"
+    "Runs the FEM scenes (default: beam-cantilever, beam-large, fem-block-1k/5k/20k/50k from demos/scenes)\n"
+    "with Sinew's implicit Euler FEM (engine sinew-implicit; variants: rotation polar, qr or linear, and\n"
+    "for beams the mesh refined 2x and 4x along each axis, r4 being the converged reference) and with\n"
+    "Bullet's btDeformableBody (engine bullet, variant corotated r1, and r2 for beams), in this process.\n"
+    "One JSON line per run: scene, engine, variant, tets, nodes, steps, ms_per_step_median,\n"
+    "tip_deflection (beams: m, mean over the last second), accuracy (beams: tip / reference; blocks:\n"
+    "final volume ratio), min_volume_ratio (over the run), inverted (tets at the end), finite.\n"
+    "--chart draws beam error against time and block time against tets; --markdown rewrites bench-fem.\n"};
 }  // namespace sinew::tool
