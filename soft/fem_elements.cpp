@@ -2,6 +2,9 @@
 // (soft/fem_elements.hpp; docs/theory.md#fem).
 #include "soft/fem_elements.hpp"
 
+#include "soft/soft_body.hpp"
+#include "soft/tet_mesh.hpp"
+
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -141,6 +144,21 @@ Mat3 qr_rotation(const Mat3& F, const Mat3& previous) {
     R.col(1) = r1;
     R.col(2) = r0.cross(r1);  // right-handed even when F is inverted (Nesme 2005)
     return R;
+}
+
+void set_fem_material(SoftBody& b, const FemMaterial& m) {
+    FemState& s = *b.fem;
+    const Real old_density = b.def.fem.density;
+    b.def.fem = m;
+    s.lambda = m.lame_lambda();
+    s.mu = m.lame_mu();
+    if (m.density != old_density) {
+        const std::vector<Real> mass = lumped_masses(s.rest, s.tets, m.density);
+        for (std::size_t i = 0; i < b.p.size(); ++i) {
+            b.p.mass[i] = mass[i];
+            if (b.p.inv_mass[i] != 0) b.p.inv_mass[i] = 1 / mass[i];
+        }
+    }
 }
 
 void fem_update_rotations(FemState& s, const std::vector<Vec3>& x, FemRotation method) {

@@ -24,6 +24,8 @@
 
 namespace sinew {
 
+struct SoftBody;
+
 struct FemState {
     // Rest data (from the positions at creation).
     std::vector<Vec3> rest;           ///< the rest shape, per particle
@@ -54,6 +56,10 @@ struct FemState {
 /// Rest data of a body's elements from its rest positions (validated by the caller: positive volumes).
 std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const std::vector<std::uint32_t>& tets,
                                          const FemMaterial& material);
+
+/// Changes an FEM body's material: Lamé parameters, damping, plasticity, rotation; a new density gives its
+/// particles new lumped masses (pinned and attached ones stay kinematic).
+void set_fem_material(SoftBody& b, const FemMaterial& m);
 
 /// R_e of every element at positions x by the material's method; counts the inverted elements.
 void fem_update_rotations(FemState& s, const std::vector<Vec3>& x, FemRotation method);

@@ -9,6 +9,7 @@
 #include "engine/api/capi_internal.hpp"
 #include "soft/soft_integrators.hpp"
 #include "engine/core/format.hpp"
+#include "soft/fem_elements.hpp"
 #include "soft/soft_builders.hpp"
 
 using namespace sinew;
@@ -151,6 +152,53 @@ sinew_status check_particle(const Target& t, int particle, const char* fn) {
     if (particle < 0 || static_cast<std::size_t>(particle) >= n)
         return invalid(fn, "particle = " + std::to_string(particle) + " is out of range (" + std::to_string(n) +
                                " particles)");
+    return SINEW_OK;
+}
+
+/// "" if the material is valid, else what is wrong with which field (the bounds of FemMaterial).
+std::string check_fem_material(const sinew_fem_material& m) {
+    if (!(std::isfinite(m.young) && m.young > 0)) return "material->young = " + to_text(m.young) + " must be finite and > 0 (Pa)";
+    if (!(m.poisson > -1 && m.poisson < 0.5f))
+        return "material->poisson = " + to_text(m.poisson) + " must be in (-1, 0.5) (0.5 is incompressible, where linear tets lock)";
+    if (!(std::isfinite(m.density) && m.density > 0))
+        return "material->density = " + to_text(m.density) + " must be finite and > 0 (kg/m^3)";
+    const struct {
+        const char* name;
+        float value;
+    } nonneg_fields[] = {{"mass_damping", m.mass_damping}, {"stiffness_damping", m.stiffness_damping}, {"yield", m.yield},
+                         {"creep", m.creep}, {"max_plastic", m.max_plastic}};
+    for (const auto& f : nonneg_fields)
+        if (!nonneg(f.value)) return std::string("material->") + f.name + " = " + to_text(f.value) + " must be finite and >= 0";
+    const int r = enum_value(m.rotation);
+    if (r < SINEW_FEM_LINEAR || r > SINEW_FEM_QR) return "material->rotation = " + std::to_string(r) + " is not a sinew_fem_rotation";
+    return {};
+}
+
+FemMaterial fem_material(const sinew_fem_material& m) {
+    FemMaterial f;
+    f.young = Real(m.young);
+    f.poisson = Real(m.poisson);
+    f.density = Real(m.density);
+    f.mass_damping = Real(m.mass_damping);
+    f.stiffness_damping = Real(m.stiffness_damping);
+    f.yield = Real(m.yield);
+    f.creep = Real(m.creep);
+    f.max_plastic = Real(m.max_plastic);
+    f.rotation = enum_value(m.rotation) == SINEW_FEM_LINEAR ? FemRotation::Linear
+                 : enum_value(m.rotation) == SINEW_FEM_QR   ? FemRotation::QR
+                                                              : FemRotation::Polar;
+    return f;
+}
+
+/// The checks of a tet body's creation beyond begin_create's: the material and a force-based method.
+sinew_status check_fem_create(const char* fn, const sinew_soft_def& def, const sinew_fem_material* material) {
+    if (!material) return null_arg(fn, "material");
+    const int method = enum_value(def.method);
+    if (method != SINEW_SOFT_IMPLICIT && method != SINEW_SOFT_SEMI_IMPLICIT && method != SINEW_SOFT_EXPLICIT)
+        return invalid(fn, "def->method = " + std::to_string(method) +
+                               ": a tet body needs SINEW_SOFT_IMPLICIT, SINEW_SOFT_SEMI_IMPLICIT or SINEW_SOFT_EXPLICIT");
+    const std::string bad = check_fem_material(*material);
+    if (!bad.empty()) return invalid(fn, bad);
     return SINEW_OK;
 }
 
@@ -447,6 +495,102 @@ sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_i
             ids[n++] = {pack_world(world), id.index, id.generation};
         }
         *count = n;
+        return SINEW_OK;
+    });
+}
+
+sinew_fem_material sinew_fem_material_default(void) {
+    const FemMaterial f;
+    sinew_fem_material m;
+    m.young = float(f.young);
+    m.poisson = float(f.poisson);
+    m.density = float(f.density);
+    m.mass_damping = float(f.mass_damping);
+    m.stiffness_damping = float(f.stiffness_damping);
+    m.yield = float(f.yield);
+    m.creep = float(f.creep);
+    m.max_plastic = float(f.max_plastic);
+    m.rotation = SINEW_FEM_POLAR;
+    return m;
+}
+
+sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sinew_soft_def* def, const sinew_fem_material* material,
+                                       sinew_vec3 min_corner, sinew_vec3 size, int nx, int ny, int nz, int split,
+                                       sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_tet_box";
+    return guarded(fn, [&] {
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        if (sinew_status s = check_fem_create(fn, *def, material)) return s;
+        if (!finite(min_corner)) return invalid(fn, "min_corner = " + vec_text(min_corner) + " must be finite");
+        if (!(finite(size) && size.x > 0 && size.y > 0 && size.z > 0))
+            return invalid(fn, "size = " + vec_text(size) + " must be finite and > 0 along every axis (m)");
+        const int cells[3] = {nx, ny, nz};
+        const char* names[3] = {"nx", "ny", "nz"};
+        for (int k = 0; k < 3; ++k)
+            if (cells[k] < 1 || cells[k] > 1000) return invalid(fn, std::string(names[k]) + " = " + std::to_string(cells[k]) + " must be in [1, 1000]");
+        if (split != 5 && split != 6) return invalid(fn, "split = " + std::to_string(split) + " must be 5 or 6 (tets per cell)");
+        SoftBodyDef base = base_def(*def);
+        base.fem = fem_material(*material);
+        // make_tet_box checks the total cell count (SoftError names it).
+        SoftBodyDef d = make_tet_body(make_tet_box(to_vec(min_corner), to_vec(size), nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six),
+                                      std::move(base));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_create_tet_mesh(sinew_world_id world, const sinew_soft_def* def, const sinew_fem_material* material,
+                                        const sinew_vec3* nodes, int node_count, const uint32_t* tets, int tet_count,
+                                        sinew_soft_body_id* out) {
+    const char* fn = "sinew_soft_create_tet_mesh";
+    return guarded(fn, [&] {
+        if (!nodes) return null_arg(fn, "nodes");
+        if (!tets) return null_arg(fn, "tets");
+        World* w = nullptr;
+        if (sinew_status s = begin_create(fn, world, def, out, &w)) return s;
+        if (sinew_status s = check_fem_create(fn, *def, material)) return s;
+        if (node_count < 4) return invalid(fn, "node_count = " + std::to_string(node_count) + " must be >= 4");
+        if (tet_count < 1 || tet_count > 50000000) return invalid(fn, "tet_count = " + std::to_string(tet_count) + " must be in [1, 5e7]");
+        TetMesh mesh;
+        mesh.nodes.resize(static_cast<std::size_t>(node_count));
+        for (int i = 0; i < node_count; ++i) {
+            if (!finite(nodes[i])) return invalid(fn, "nodes[" + std::to_string(i) + "] = " + vec_text(nodes[i]) + " must be finite");
+            mesh.nodes[static_cast<std::size_t>(i)] = to_vec(nodes[i]);
+        }
+        mesh.tets.assign(tets, tets + 4 * static_cast<std::size_t>(tet_count));
+        SoftBodyDef base = base_def(*def);
+        base.fem = fem_material(*material);
+        // make_tet_body checks the mesh first (SoftError names the tet, its nodes and its volume).
+        SoftBodyDef d = make_tet_body(mesh, std::move(base));
+        return finish_create(w, world, std::move(d), out);
+    });
+}
+
+sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fem_material* material) {
+    const char* fn = "sinew_soft_set_fem_material";
+    return guarded(fn, [&] {
+        if (!material) return null_arg(fn, "material");
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        const std::string bad = check_fem_material(*material);
+        if (!bad.empty()) return invalid(fn, bad);
+        SoftBody& b = t.world->soft().body(t.body);
+        if (!b.fem) return invalid(fn, "the soft body has no tets (it is not an FEM solid)");
+        const FemMaterial m = fem_material(*material);
+        set_fem_material(b, m);
+        t.world->soft().wake(t.body);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_tet_count(sinew_soft_body_id body, int* out) {
+    const char* fn = "sinew_soft_tet_count";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        const SoftBody& b = t.world->soft().body(t.body);
+        *out = b.fem ? static_cast<int>(b.fem->size()) : 0;
         return SINEW_OK;
     });
 }

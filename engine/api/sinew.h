@@ -137,16 +137,17 @@ SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 i
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
 
 /* ==== Soft bodies ====================================================================================
- * Particles joined by links (cloth, ropes, spheres, any triangle mesh). Rigid bodies push soft bodies and
+ * Particles joined by links (cloth, ropes, spheres, any triangle mesh) or by tetrahedral elements (FEM
+ * solids, below). Rigid bodies push soft bodies and
  * carry their attached particles (one-way coupling); soft bodies do not push rigid ones yet. */
 
 typedef struct sinew_soft_body_id { uint32_t world; uint32_t index; uint32_t generation; } sinew_soft_body_id;
 
 typedef enum sinew_soft_method {
     SINEW_SOFT_VERLET = 0,        /* Jakobsen 2003: Verlet integration, links relaxed as distance constraints */
-    SINEW_SOFT_EXPLICIT = 1,      /* springs, explicit Euler (unstable when undamped: for comparisons) */
-    SINEW_SOFT_SEMI_IMPLICIT = 2, /* springs, symplectic Euler (stable while omega h < 2) */
-    SINEW_SOFT_IMPLICIT = 3,      /* springs, Baraff & Witkin 1998 implicit Euler (one Newton step, CG) */
+    SINEW_SOFT_EXPLICIT = 1,      /* springs or FEM, explicit Euler (unstable when undamped: for comparisons) */
+    SINEW_SOFT_SEMI_IMPLICIT = 2, /* springs or FEM, symplectic Euler (stable while omega h < 2) */
+    SINEW_SOFT_IMPLICIT = 3,      /* springs or FEM, Baraff & Witkin 1998 implicit Euler (one Newton step, CG) */
     SINEW_SOFT_FAST_MS = 4        /* springs, Liu et al. 2013 fast mass-spring (local/global) */
 } sinew_soft_method;
 
@@ -236,6 +237,52 @@ SINEW_API sinew_status sinew_world_soft_body_count(sinew_world_id world, int* ou
  *  a loaded scene); *count receives how many were written. */
 SINEW_API sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_id* ids, int capacity,
                                                    int* count);
+
+/* ---- FEM solids: tetrahedral meshes (docs/fem.md) ----------------------------------------------------
+ * A tet body's particles are its mesh nodes, with lumped masses from the material's density
+ * (def->total_mass and def->links are not read); its surface triangles are the mesh boundary. def->method
+ * must be SINEW_SOFT_IMPLICIT (the usual choice), SINEW_SOFT_SEMI_IMPLICIT or SINEW_SOFT_EXPLICIT, and
+ * def->iterations is the CG cap of implicit Euler (100 is a good start for a solid). Read nodes with
+ * sinew_soft_get_positions, pin them with sinew_soft_set_pinned. */
+
+typedef enum sinew_fem_rotation {
+    SINEW_FEM_LINEAR = 0, /* plain linear elements (they inflate when turned: for comparisons) */
+    SINEW_FEM_POLAR = 1,  /* stiffness warping by the polar rotation of each element (default) */
+    SINEW_FEM_QR = 2      /* stiffness warping by the Gram-Schmidt rotation of each element */
+} sinew_fem_rotation;
+
+typedef struct sinew_fem_material {
+    float young;             /* Pa, > 0 (default 1e5) */
+    float poisson;           /* in (-1, 0.5) (default 0.3) */
+    float density;           /* kg/m^3, > 0 (default 1000) */
+    float mass_damping;      /* Rayleigh alpha, 1/s, >= 0 (default 0) */
+    float stiffness_damping; /* Rayleigh beta, s, >= 0 (default 0) */
+    float yield;             /* plastic yield strain, >= 0 (default 0) */
+    float creep;             /* plastic creep rate, 1/s, >= 0 (default 0: elastic) */
+    float max_plastic;       /* cap on the plastic strain, >= 0 (default 0) */
+    sinew_fem_rotation rotation;
+} sinew_fem_material;
+
+SINEW_API sinew_fem_material sinew_fem_material_default(void);
+/** A solid box from min_corner (m) of extents size (m, > 0), cut into nx x ny x nz cells (each in
+ *  [1, 1000]) of `split` (5 or 6) tets each: (nx+1)(ny+1)(nz+1) particles, node (i, j, k) being particle
+ *  i + (nx+1) (j + (ny+1) k). */
+SINEW_API sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sinew_soft_def* def,
+                                                 const sinew_fem_material* material, sinew_vec3 min_corner,
+                                                 sinew_vec3 size, int nx, int ny, int nz, int split,
+                                                 sinew_soft_body_id* out);
+/** A solid from a tet mesh: node_count (> 0) positions (m, world, the rest shape) and tet_count (> 0)
+ *  tets of 4 node indices each, positively oriented ((b-a).((c-a)x(d-a)) > 0). The mesh is checked first
+ *  (an inverted or flat tet, duplicate or unused nodes, a face on three tets, an open boundary: the
+ *  message names the tet and its volume). The arrays are copied. */
+SINEW_API sinew_status sinew_soft_create_tet_mesh(sinew_world_id world, const sinew_soft_def* def,
+                                                  const sinew_fem_material* material, const sinew_vec3* nodes,
+                                                  int node_count, const uint32_t* tets, int tet_count,
+                                                  sinew_soft_body_id* out);
+/** Changes a tet body's material; a new density changes its particles' masses (pins stay pinned). */
+SINEW_API sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fem_material* material);
+/** The number of tets of a soft body (0 for a body that is not a solid). */
+SINEW_API sinew_status sinew_soft_tet_count(sinew_soft_body_id body, int* out);
 
 /* ==== Joints ========================================================================================
  * Anchors are points in each body's origin frame (m); the hinge/slider axis is in A's frame. The bodies'
