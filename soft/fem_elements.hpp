@@ -36,7 +36,8 @@ struct FemState {
     // Per step.
     std::vector<Mat3> rotation;       ///< R_e at the last evaluation
     std::vector<Quat> polar;          ///< the polar rotation as a quaternion: the next step starts from it
-    /// Müller 2016's iterations per evaluation at most. Warm-started, the rotation converges over steps
+    /// Müller 2016's iterations per evaluation at most (every element of a batch of 8 runs until the last
+/// of them has turned less than the tolerance). Warm-started, the rotation converges over steps
     /// (Müller et al. use a few per step): on a 20k-tet block hitting the ground, uncapped it takes 4.8 per
     /// element and step, 47% of the step; a cap of 4 leaves the run's figures within 0.1%.
     int polar_iterations = 4;
@@ -72,6 +73,11 @@ void fem_add_forces(const FemState& s, const std::vector<Vec3>& x, const std::ve
 /// Assembles K' = Σ R_e K_e R_eᵀ with the current rotations.
 void fem_assemble_stiffness(FemState& s);
 
+/// The three above in one pass over the elements (each F computed once): rotations at x, f += the
+/// forces, and K' assembled if `assemble`. The force-model row calls this.
+void fem_evaluate(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
+                  std::vector<Vec3>& f, bool assemble);
+
 /// O'Brien's rule at x with the current rotations: ε_e = ε - ε_p; above yield ε_p += h creep ε_e;
 /// ‖ε_p‖ capped at max_plastic.
 void fem_update_plasticity(FemState& s, const std::vector<Vec3>& x, const FemMaterial& m, Real h);
@@ -79,10 +85,9 @@ void fem_update_plasticity(FemState& s, const std::vector<Vec3>& x, const FemMat
 /// The elastic energy Σ V (μ ε:ε + λ/2 tr(ε)²) at x with the current rotations (J).
 double fem_elastic_energy(const FemState& s, const std::vector<Vec3>& x);
 
-/// The polar rotation of F (det F > 0), by Müller et al. 2016's iteration from `q` (updated in place);
-/// for det F <= 0, the rotation of the SVD with Nesme's flip of the smallest singular direction.
-Mat3 polar_rotation(const Mat3& F, Quat& q, int max_iterations = 50);
-/// Gram-Schmidt of F's first two columns, the third their cross product (always a proper rotation).
-Mat3 qr_rotation(const Mat3& F, const Mat3& previous);
+/// For det F <= 0 (an inverted or flat element): the proper rotation of F's SVD with Nesme 2005's flip of
+/// the column of the smallest singular value (the rotation closest to F). The polar iteration for
+/// det F > 0 runs in the batched element loop (soft/fem_kernel.cpp).
+Mat3 inverted_rotation(const Mat3& F);
 
 }  // namespace sinew

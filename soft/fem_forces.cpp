@@ -34,8 +34,7 @@ void add_mass_damping(const SoftBody& b, const std::vector<Vec3>& v, std::vector
 // The FEM state is this model's scratch: evaluating forces updates its rotations.
 void add_fem_forces(const SoftBody& b, const std::vector<Vec3>& x, const std::vector<Vec3>& v, std::vector<Vec3>& f) {
     FemState& s = *b.fem;
-    fem_update_rotations(s, x, b.def.fem.rotation);
-    fem_add_forces(s, x, &v, b.def.fem.stiffness_damping, f);
+    fem_evaluate(s, x, &v, b.def.fem.stiffness_damping, b.def.fem.rotation, f, false);
     add_mass_damping(b, v, f);
 }
 
@@ -43,10 +42,8 @@ void prepare_fem_implicit(const SoftBody& b, ImplicitTerms& t) {
     FemState& s = *b.fem;
     const Particles& p = b.p;
     const FemMaterial& mat = b.def.fem;
-    fem_update_rotations(s, p.x, mat.rotation);
-    fem_add_forces(s, p.x, &p.v, mat.stiffness_damping, *t.force);
+    fem_evaluate(s, p.x, &p.v, mat.stiffness_damping, mat.rotation, *t.force, true);
     add_mass_damping(b, p.v, *t.force);
-    fem_assemble_stiffness(s);
 
     const Real hl = t.h * t.lambda;
     s.k_scale = hl * hl + hl * mat.stiffness_damping;
