@@ -128,7 +128,8 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle back in
         // each sweep must not look like an impact).
         const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
-        if (vn >= 0 && depth <= 0 && pushed_speed == 0) continue;  // near but separating: not a contact
+        const Real held = b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i];  // held by the solve's constraint
+        if (vn >= 0 && depth <= 0 && pushed_speed == 0 && held == 0) continue;  // near but separating: not a contact
         Vec3 dv = Vec3::Zero();
         const Real removed = std::max(Real(0), -vn);  // approach this pass removes
         const Real approach = removed + pushed_speed;
@@ -140,7 +141,10 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         const Vec3 vt = vrel - vn * n;
         const Real vt_len = vt.norm();
         if (vt_len > 0 && !position_friction) {
-            const Vec3 dvt = -std::min(Real(1), mu * (removed + pushed_speed) / vt_len) * vt;
+            // The budget counts the normal change an implicit solve's contact constraint already made.
+            const Real solved = b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i];
+            const Real dvt_max = mu * (removed + pushed_speed + solved);
+            const Vec3 dvt = -std::min(Real(1), dvt_max / vt_len) * vt;
             dv += dvt;
             // The step already moved the particle with its pre-friction velocity: take back the
             // tangential part of that motion, as if friction had acted before the position update

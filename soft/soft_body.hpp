@@ -142,6 +142,15 @@ struct SoftBody {
     std::vector<LongRangeAttachment> lra;
     std::vector<Attachment> attachments;
     Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
+    /// Per particle, the contact the last step's contact pass found: its unit normal (zero: none) and the
+    /// collider's velocity along it there (m/s). Implicit Euler holds these particles' normal velocity
+    /// in its solve (Baraff & Witkin 1998's constraint filter); empty until the first contact pass.
+    std::vector<Vec3> contact_normal;
+    std::vector<Real> contact_speed;
+    /// Per particle, the normal velocity change (m/s, >= 0) the solve's contact constraint gave it this
+    /// step: the contact pass adds it to its Coulomb friction budget (mu times the normal change), since
+    /// the solve, not the pass, stopped the particle. Empty: none.
+    std::vector<Real> contact_dvn;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

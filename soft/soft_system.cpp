@@ -347,9 +347,28 @@ void SoftSystem::solve_velocities(Real h) {
         ParticleCollision* collision = collision_[s].empty() ? nullptr : &collision_[s];
         soft_method_stages(b.def.method).solve_constraints(b, h, collision);
         restore_attachment_velocities(b);
+        const std::size_t first_contact = contacts_.size();
         if (collision) collision->finish(b, s, h, contacts_);
+        record_contacts(b, first_contact);
         p.v_solved = p.v;
         p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
+    }
+}
+
+void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
+    // Only implicit Euler reads them (its constraint filter), for FEM bodies so far: on the springs of a
+    // pressure ball resting on the ground the filter left a rocking cycle of 0.4-3.3 mJ (one rim particle
+    // entering and leaving contact every second) where the projection alone settles below 1 mJ, so
+    // mass-spring bodies keep the projection until that is understood. The arrays are sized once.
+    if (b.def.method != SoftMethod::ImplicitEuler || !b.fem) return;
+    const std::size_t n = b.p.size();
+    b.contact_normal.assign(n, Vec3::Zero());
+    b.contact_speed.assign(n, Real(0));
+    for (std::size_t k = first; k < contacts_.size(); ++k) {
+        const ParticleContact& c = contacts_[k];
+        const Collider& col = colliders_[c.collider];
+        b.contact_normal[c.particle] = c.normal;
+        b.contact_speed[c.particle] = c.normal.dot(col.v + col.w.cross(c.point - col.com));
     }
 }
 

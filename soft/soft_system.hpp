@@ -103,6 +103,9 @@ private:
     void solve_velocities(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
+    /// Keeps the contacts the contact pass appended from `first` as the body's per-particle contact
+    /// normals and collider speeds, for the next step's implicit solve.
+    void record_contacts(SoftBody& b, std::size_t first);
 
     SoftSettings settings_;
     std::vector<SoftBody> bodies_;

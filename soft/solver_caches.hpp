@@ -34,6 +34,18 @@ struct ImplicitEulerCache {
     std::vector<LinkBlock> links;
     std::vector<Real> mass;             ///< the system's diagonal mass m (1 + hλ drag) per particle
     std::vector<std::uint32_t> pinned;  ///< particles with inverse mass 0 this step (their rows are filtered)
+    /// Particles in resting or approaching contact this step: their normal velocity change is fixed to
+    /// `dv_normal` (along `normal`) and the solve runs in the plane orthogonal to it (Baraff & Witkin's S).
+    struct ContactRow {
+        std::uint32_t particle = 0;
+        Vec3 normal = Vec3::Zero();
+        Vec3 dv_normal = Vec3::Zero();
+        Real rhs_normal = 0;  ///< n · rhs before the filter (for the constraint's force after the solve)
+    };
+    std::vector<ContactRow> contact_rows;
+    /// Per particle: 1 if its contact constraint pulled it towards the collider in the last solve
+    /// (adhesion); the next step leaves it free, as Baraff & Witkin release such constraints.
+    std::vector<std::uint8_t> contact_released;
     /// The CG scratch and its block-Jacobi preconditioner (each particle's 3x3 diagonal block, inverted;
     /// all zero for pinned particles: Baraff-Witkin's filter S).
     BlockCg cg;

@@ -56,6 +56,10 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path);
 /// are skipped; unused nodes are dropped). Throws SoftError naming the file and line.
 TetMesh load_gmsh(const std::string& path);
 
+/// Writes `mesh` as TetGen's .node and .ele files (0-based, the orientation this file uses); throws
+/// SoftError naming a file that cannot be written.
+void save_tetgen(const TetMesh& mesh, const std::string& node_path, const std::string& ele_path);
+
 /// Orients a loaded mesh: if every tet is negatively oriented (a file format's convention), two nodes of
 /// each are swapped; mixed orientations are left for check_tet_mesh to report.
 void orient_tets(const std::vector<Vec3>& nodes, std::vector<std::uint32_t>& tets);

@@ -118,6 +118,23 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path) {
     return m;
 }
 
+void save_tetgen(const TetMesh& mesh, const std::string& node_path, const std::string& ele_path) {
+    std::ofstream node(node_path);
+    if (!node) throw SoftError(node_path + ": cannot write the file");
+    node << "# written by Sinew: <points> <dimension> <attributes> <boundary markers>\n" << mesh.nodes.size() << " 3 0 0\n";
+    node.precision(9);
+    for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
+        node << i << " " << mesh.nodes[i].x() << " " << mesh.nodes[i].y() << " " << mesh.nodes[i].z() << "\n";
+    std::ofstream ele(ele_path);
+    if (!ele) throw SoftError(ele_path + ": cannot write the file");
+    ele << "# written by Sinew: <tetrahedra> <nodes per tet> <attributes>; (b-a).((c-a)x(d-a)) > 0\n"
+        << mesh.tet_count() << " 4 0\n";
+    for (std::size_t e = 0; e < mesh.tet_count(); ++e)
+        ele << e << " " << mesh.tets[4 * e] << " " << mesh.tets[4 * e + 1] << " " << mesh.tets[4 * e + 2] << " " << mesh.tets[4 * e + 3]
+            << "\n";
+    if (!node.flush() || !ele.flush()) throw SoftError(node_path + ": writing failed");
+}
+
 TetMesh load_gmsh(const std::string& path) {
     LineReader r(path, false);
     std::istringstream s = r.next("$MeshFormat");

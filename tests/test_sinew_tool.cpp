@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "engine/world/scene.hpp"
+#include "soft/tet_mesh.hpp"
 #include "tests/test_files_util.hpp"
 
 using namespace sinew;
@@ -332,4 +333,57 @@ TEST_CASE("run with an unwritable record file exits 1", "[tool]") {
     REQUIRE(r.exited);
     CHECK(r.status == 1);
     CHECK_THAT(r.err, Contains("cannot write record file"));
+}
+
+TEST_CASE("bench fem prints one JSON line per run, Sinew and Bullet's deformable body in one run", "[tool][bench][fem]") {
+    const std::string dir = quote(kSource + "/demos/scenes");
+    const Result r =
+        sinew_cmd("bench fem --scenes beam-cantilever --steps 3 --engines 'sinew-implicit/polar r1,bullet/corotated r1' --scene-dir " + dir);
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const std::vector<std::string> lines = lines_of(r.out);
+    REQUIRE(lines.size() == 2);
+    const char* engines[] = {"sinew-implicit", "bullet"};
+    for (int k = 0; k < 2; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k)]);
+        CHECK(j["scene"] == "beam-cantilever");
+        CHECK(j["engine"] == engines[k]);
+        CHECK(j["tets"] == 480);  // 20 x 2 x 2 cells of 6 tets
+        CHECK(j["nodes"] == 21 * 3 * 3);
+        CHECK(j["finite"] == true);
+        CHECK(j["inverted"] == 0);
+        // 3 steps: the beam has barely started to sag; the volume has not moved.
+        CHECK(j["min_volume_ratio"].get<double>() == Approx(1).margin(1e-3));
+    }
+}
+
+TEST_CASE("mesh fills a closed OBJ surface with tets through TetGen, and refuses an open one", "[tool][fem]") {
+    const fs::path dir = scratch();
+    // A unit cube, counter-clockwise from outside.
+    std::ofstream(dir / "cube.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                                       "f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
+                                       "f 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    const std::string out = (dir / "cube").string();
+    const Result r = sinew_cmd("mesh " + quote((dir / "cube.obj").string()) + " " + quote(out) + " --max-volume 0.01");
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    REQUIRE(r.status == 0);
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    CHECK(j["volume"].get<double>() == Approx(1).epsilon(1e-5));  // the tets fill the cube exactly
+    CHECK(j["surface_volume"].get<double>() == Approx(1).epsilon(1e-5));
+    CHECK(j["tets"].get<int>() >= 100);  // the volume bound: at least 1 / 0.01 tets
+    CHECK(j["min_tet_volume"].get<double>() > 0);
+    const TetMesh m = load_tetgen(out + ".node", out + ".ele");
+    CHECK(m.tet_count() == j["tets"].get<std::size_t>());
+    CHECK_NOTHROW(check_tet_mesh(m.nodes, m.tets, "cube"));
+
+    // One face missing: not closed.
+    std::ofstream(dir / "open.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                                       "f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
+                                       "f 3 4 8\nf 3 8 7\n";
+    const Result bad = sinew_cmd("mesh " + quote((dir / "open.obj").string()) + " " + quote((dir / "open").string()));
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 1);
+    CHECK_THAT(bad.err, Contains("open.obj") && Contains("not closed"));
 }

@@ -34,6 +34,7 @@ struct Command {
 extern const Command run_command;
 extern const Command validate_command;
 extern const Command bench_command;  // tools/bench/bench_rigid.cpp
+extern const Command mesh_command;
 
 // ---- argument helpers ------------------------------------------------------------------------------
 

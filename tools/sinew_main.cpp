@@ -16,6 +16,7 @@ const Command* const kCommands[] = {
     &sinew::tool::run_command,
     &sinew::tool::validate_command,
     &sinew::tool::bench_command,
+    &sinew::tool::mesh_command,
 };
 
 const Command* find_command(const std::string& name) {

@@ -31,8 +31,8 @@ namespace sinew::bench {
 
 namespace {
 
-const char* const kDefaultScenes[] = {"beam-cantilever", "beam-large", "fem-block-1k", "fem-block-5k", "fem-block-20k",
-                                      "fem-block-50k"};
+const char* const kDefaultScenes[] = {"beam-cantilever", "beam-large", "ball-drop", "fem-block-1k", "fem-block-5k",
+                                      "fem-block-20k", "fem-block-50k"};
 constexpr int kReferenceRefinement = 4;
 
 }  // namespace
@@ -40,8 +40,8 @@ constexpr int kReferenceRefinement = 4;
 FemScene fem_scene(const std::string& name, const std::string& scene_dir, int refinement) {
     const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");
     auto fail = [&](const std::string& what) { throw SceneError(scene.file, "", "not an FEM benchmark scene: " + what); };
-    if (scene.soft_bodies.size() != 1 || scene.soft_bodies[0].builder != "tet-box")
-        fail("it must hold exactly one soft body, built by tet-box");
+    if (scene.soft_bodies.size() != 1 || (scene.soft_bodies[0].builder != "tet-box" && scene.soft_bodies[0].builder != "tet-mesh"))
+        fail("it must hold exactly one soft body, built by tet-box or tet-mesh");
     const SceneSoftBody& body = scene.soft_bodies[0];
     FemScene s;
     s.name = scene.name;
@@ -53,10 +53,17 @@ FemScene fem_scene(const std::string& name, const std::string& scene_dir, int re
     s.thickness = body.def.thickness;
     s.refinement = refinement;
     const SceneSoftBody::TetBox& box = body.tet_box;
-    s.mesh = make_tet_box(box.min_corner, box.size, box.cells[0] * refinement, box.cells[1] * refinement,
-                          box.cells[2] * refinement, box.split == 6 ? HexSplit::Six : HexSplit::Five);
+    if (body.builder == "tet-box") {
+        s.mesh = make_tet_box(box.min_corner, box.size, box.cells[0] * refinement, box.cells[1] * refinement,
+                              box.cells[2] * refinement, box.split == 6 ? HexSplit::Six : HexSplit::Five);
+    } else {
+        if (refinement != 1) fail("a tet-mesh body cannot be refined");
+        if (!body.def.pinned.empty()) fail("a tet-mesh body may not be pinned");
+        s.mesh.nodes = body.def.positions;
+        s.mesh.tets = body.def.tets;
+    }
     s.masses = lumped_masses(s.mesh.nodes, s.mesh.tets, s.material.density);
-    // A beam is clamped at its x = min face (the scene pins exactly those nodes); a block is free.
+    // A beam is clamped at its x = min face (the scene pins exactly those nodes); a block or ball is free.
     const Real x0 = box.min_corner.x() + Real(1e-6) * box.size.x();
     for (const std::uint32_t i : body.def.pinned)
         if (body.def.positions[i].x() > x0) fail("it may pin only the nodes of the box's x = min face");

@@ -335,7 +335,7 @@ const Command bench_command = {
     "usage: sinew bench fem [--scenes a,b,...] [--engines e,e/variant,...] [--steps N]\n"
     "                       [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"
     "\n"
-    "Runs the FEM scenes (default: beam-cantilever, beam-large, fem-block-1k/5k/20k/50k from demos/scenes)\n"
+    "Runs the FEM scenes (default: beam-cantilever, beam-large, ball-drop, fem-block-1k/5k/20k/50k)\n"
     "with Sinew's implicit Euler FEM (engine sinew-implicit; variants: rotation polar, qr or linear, and\n"
     "for beams the mesh refined 2x and 4x along each axis, r4 being the converged reference) and with\n"
     "Bullet's btDeformableBody (engine bullet, variant corotated r1, and r2 for beams), in this process.\n"
