@@ -10,7 +10,6 @@ SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base) {
     builder::check_positive(where, "fem.density", base.fem.density);
     SoftBodyDef d = std::move(base);
     builder::reset_geometry(d);
-    d.tets.clear();
     d.positions = mesh.nodes;
     d.masses = lumped_masses(mesh.nodes, mesh.tets, d.fem.density);
     d.tets = mesh.tets;

@@ -58,6 +58,9 @@ inline void reset_geometry(SoftBodyDef& d) {
     d.masses.clear();
     d.links.clear();
     d.triangles.clear();
+    d.tets.clear();
+    d.rest_positions.clear();
+    d.plastic_strain.clear();
 }
 
 }  // namespace sinew::builder

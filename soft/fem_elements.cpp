@@ -2,6 +2,7 @@
 // (soft/fem_elements.hpp; docs/theory.md#fem).
 #include "soft/fem_elements.hpp"
 
+#include "engine/core/format.hpp"
 #include "soft/soft_body.hpp"
 #include "soft/tet_mesh.hpp"
 
@@ -77,17 +78,21 @@ Mat3 inverted_rotation(const Mat3& F) {
 }
 
 void set_fem_material(SoftBody& b, const FemMaterial& m) {
+    if (!b.fem) throw SoftError("set_fem_material: the soft body has no tets (it is not an FEM solid)");
+    const std::string bad = fem_material_problem(m, "set_fem_material: material.");
+    if (!bad.empty()) throw SoftError(bad);
     FemState& s = *b.fem;
-    const Real old_density = b.def.fem.density;
+    // The masses first: the only step that allocates (and may throw) runs before anything changes.
+    std::vector<Real> mass;
+    if (m.density != b.def.fem.density) mass = lumped_masses(s.rest, s.tets, m.density);
     b.def.fem = m;
     s.lambda = m.lame_lambda();
     s.mu = m.lame_mu();
-    if (m.density != old_density) {
-        const std::vector<Real> mass = lumped_masses(s.rest, s.tets, m.density);
-        for (std::size_t i = 0; i < b.p.size(); ++i) {
-            b.p.mass[i] = mass[i];
-            if (b.p.inv_mass[i] != 0) b.p.inv_mass[i] = 1 / mass[i];
-        }
+    // Without plasticity no plastic strain: an earlier set is forgotten (fem_material.hpp).
+    if (!m.plastic()) std::fill(s.plastic.begin(), s.plastic.end(), Strain6{});
+    for (std::size_t i = 0; i < mass.size(); ++i) {
+        b.p.mass[i] = mass[i];
+        if (b.p.inv_mass[i] != 0) b.p.inv_mass[i] = 1 / mass[i];
     }
 }
 
@@ -133,6 +138,24 @@ static_assert(sizeof(kRotationNames) / sizeof(kRotationNames[0]) == static_cast<
 const char* fem_rotation_name(FemRotation r) {
     const int i = static_cast<int>(r);
     return i >= 0 && i < static_cast<int>(FemRotation::Count) ? kRotationNames[i] : "unknown";
+}
+
+std::string fem_material_problem(const FemMaterial& m, const std::string& prefix) {
+    const auto text = [](Real x) { return to_text(x); };
+    if (!(m.young > 0 && std::isfinite(m.young))) return prefix + "young = " + text(m.young) + " must be finite and > 0 (Pa)";
+    if (!(m.poisson > -1 && m.poisson < Real(0.5)))
+        return prefix + "poisson = " + text(m.poisson) + " must be in (-1, 0.5) (0.5 is incompressible, where linear tets lock)";
+    if (!(m.density > 0 && std::isfinite(m.density))) return prefix + "density = " + text(m.density) + " must be finite and > 0 (kg/m^3)";
+    const struct {
+        const char* name;
+        Real value;
+    } nonneg[] = {{"mass_damping", m.mass_damping}, {"stiffness_damping", m.stiffness_damping}, {"yield", m.yield},
+                  {"creep", m.creep}, {"max_plastic", m.max_plastic}};
+    for (const auto& f : nonneg)
+        if (!(f.value >= 0 && std::isfinite(f.value))) return prefix + f.name + " = " + text(f.value) + " must be finite and >= 0";
+    const int r = static_cast<int>(m.rotation);
+    if (r < 0 || r >= static_cast<int>(FemRotation::Count)) return prefix + "rotation = " + std::to_string(r) + " is not a rotation method";
+    return {};
 }
 
 bool parse_fem_rotation(const char* text, FemRotation& out) {

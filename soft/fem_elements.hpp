@@ -43,6 +43,7 @@ struct FemState {
     int polar_iterations = 4;
     std::vector<Strain6> plastic;     ///< ε_p per element (rest frame)
     int inverted = 0;                 ///< elements with det F <= 0 at the last evaluation
+    bool rotations_current = false;   ///< the rotations are those of x_n (begin_step took them for plasticity)
     // The warped stiffness K' and the blocks of each element in it.
     BlockSparse3 stiffness;
     std::vector<std::array<std::uint32_t, 16>> element_blocks;
@@ -59,7 +60,8 @@ std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const st
                                          const FemMaterial& material);
 
 /// Changes an FEM body's material: Lamé parameters, damping, plasticity, rotation; a new density gives its
-/// particles new lumped masses (pinned and attached ones stay kinematic).
+/// particles new lumped masses (pinned and attached ones stay kinematic); turning plasticity off clears the
+/// plastic strain. Throws SoftError for a body without tets or a material out of range (nothing changed).
 void set_fem_material(SoftBody& b, const FemMaterial& m);
 
 /// R_e of every element at positions x by the material's method; counts the inverted elements.
@@ -73,10 +75,11 @@ void fem_add_forces(const FemState& s, const std::vector<Vec3>& x, const std::ve
 /// Assembles K' = Σ R_e K_e R_eᵀ with the current rotations.
 void fem_assemble_stiffness(FemState& s);
 
-/// The three above in one pass over the elements (each F computed once): rotations at x, f += the
-/// forces, and K' assembled if `assemble`. The force-model row calls this.
-void fem_evaluate(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
-                  std::vector<Vec3>& f, bool assemble);
+/// The three above in one pass over the elements (each F computed once, soft/fem_kernel.cpp): the
+/// rotations at x if `rotate` (else the kept ones), f += the forces if f is not null, K' assembled if
+/// `assemble`. The force-model row calls this.
+void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
+                bool rotate, std::vector<Vec3>* f, bool assemble);
 
 /// O'Brien's rule at x with the current rotations: ε_e = ε - ε_p; above yield ε_p += h creep ε_e;
 /// ‖ε_p‖ capped at max_plastic.

@@ -21,6 +21,7 @@ void fem_begin_step(SoftBody& b, Real h) {
     if (!b.def.fem.plastic()) return;
     fem_update_rotations(*b.fem, b.p.x, b.def.fem.rotation);
     fem_update_plasticity(*b.fem, b.p.x, b.def.fem, h);
+    b.fem->rotations_current = true;  // the force pass at x_n reuses them
 }
 
 // -α m v on the free particles (pinned ones have no force to feel).
@@ -34,7 +35,8 @@ void add_mass_damping(const SoftBody& b, const std::vector<Vec3>& v, std::vector
 // The FEM state is this model's scratch: evaluating forces updates its rotations.
 void add_fem_forces(const SoftBody& b, const std::vector<Vec3>& x, const std::vector<Vec3>& v, std::vector<Vec3>& f) {
     FemState& s = *b.fem;
-    fem_evaluate(s, x, &v, b.def.fem.stiffness_damping, b.def.fem.rotation, f, false);
+    fem_kernel(s, x, &v, b.def.fem.stiffness_damping, b.def.fem.rotation, !s.rotations_current, &f, false);
+    s.rotations_current = false;
     add_mass_damping(b, v, f);
 }
 
@@ -42,7 +44,8 @@ void prepare_fem_implicit(const SoftBody& b, ImplicitTerms& t) {
     FemState& s = *b.fem;
     const Particles& p = b.p;
     const FemMaterial& mat = b.def.fem;
-    fem_evaluate(s, p.x, &p.v, mat.stiffness_damping, mat.rotation, *t.force, true);
+    fem_kernel(s, p.x, &p.v, mat.stiffness_damping, mat.rotation, !s.rotations_current, t.force, true);
+    s.rotations_current = false;
     add_mass_damping(b, p.v, *t.force);
 
     const Real hl = t.h * t.lambda;

@@ -302,8 +302,6 @@ void stiffness_lanes(FemState& s, const Batch& b) {
 
 }  // namespace
 
-// One pass over the elements in batches: rotations (if `rotate`, by `method`; else the kept ones), forces
-// into *f (if f), the blocks into K' (if `assemble`).
 void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
                 bool rotate, std::vector<Vec3>* f, bool assemble) {
     if (assemble) s.stiffness.set_zero();
@@ -344,11 +342,6 @@ void fem_add_forces(const FemState& s, const std::vector<Vec3>& x, const std::ve
 void fem_assemble_stiffness(FemState& s) {
     // The positions only feed F, which neither the kept rotations nor the blocks read.
     fem_kernel(s, s.rest, nullptr, 0, FemRotation::Linear, false, nullptr, true);
-}
-
-void fem_evaluate(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
-                  std::vector<Vec3>& f, bool assemble) {
-    fem_kernel(s, x, v, beta, method, true, &f, assemble);
 }
 
 }  // namespace sinew

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 
 #include "engine/core/math.hpp"
 
@@ -21,6 +22,12 @@ enum class FemRotation : std::uint8_t {
 const char* fem_rotation_name(FemRotation r);
 /// Parses "linear", "polar", "qr"; returns false if unknown.
 bool parse_fem_rotation(const char* text, FemRotation& out);
+
+struct FemMaterial;
+/// "" if every field is in its range, else what is wrong, each field named with `prefix` ("fem.",
+/// "material->"): young > 0, poisson in (-1, 0.5), density > 0, damping and plasticity >= 0, all finite,
+/// a rotation of the enum. The one check SoftSystem::create_body, set_fem_material and the C API share.
+std::string fem_material_problem(const FemMaterial& m, const std::string& prefix);
 
 /// A symmetric strain in an element's rest frame: xx, yy, zz, xy, xz, yz (tensor components).
 using Strain6 = std::array<Real, 6>;

@@ -142,8 +142,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         const Real vt_len = vt.norm();
         if (vt_len > 0 && !position_friction) {
             // The budget counts the normal change an implicit solve's contact constraint already made.
-            const Real solved = b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i];
-            const Real dvt_max = mu * (removed + pushed_speed + solved);
+            const Real dvt_max = mu * (removed + pushed_speed + held);
             const Vec3 dvt = -std::min(Real(1), dvt_max / vt_len) * vt;
             dv += dvt;
             // The step already moved the particle with its pre-friction velocity: take back the

@@ -80,18 +80,8 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (!d.tets.empty()) {
         if (d.method != SoftMethod::ExplicitEuler && d.method != SoftMethod::SemiImplicitEuler && d.method != SoftMethod::ImplicitEuler)
             fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") + soft_method_name(d.method));
-        const FemMaterial& m = d.fem;
-        if (!(m.young > 0 && std::isfinite(m.young))) fail("fem.young must be > 0 and finite, got " + to_text(m.young));
-        if (!(m.poisson > -1 && m.poisson < Real(0.5)))
-            fail("fem.poisson must be in (-1, 0.5) (0.5 is incompressible, where the elements lock), got " + to_text(m.poisson));
-        if (!(m.density > 0 && std::isfinite(m.density))) fail("fem.density must be > 0 and finite, got " + to_text(m.density));
-        require_range(m.mass_damping, 0, kRealMax, "fem.mass_damping");
-        require_range(m.stiffness_damping, 0, kRealMax, "fem.stiffness_damping");
-        require_range(m.yield, 0, kRealMax, "fem.yield");
-        require_range(m.creep, 0, kRealMax, "fem.creep");
-        require_range(m.max_plastic, 0, kRealMax, "fem.max_plastic");
-        const int r = static_cast<int>(m.rotation);
-        if (r < 0 || r >= static_cast<int>(FemRotation::Count)) fail("fem.rotation = " + std::to_string(r) + " is not a rotation method");
+        const std::string bad = fem_material_problem(d.fem, "fem.");
+        if (!bad.empty()) fail(bad);
         if (!d.rest_positions.empty() && d.rest_positions.size() != n)
             fail("rest_positions has " + std::to_string(d.rest_positions.size()) + " entries for " + std::to_string(n) + " positions");
         check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "soft body: tets");

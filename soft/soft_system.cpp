@@ -368,7 +368,7 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
         const ParticleContact& c = contacts_[k];
         const Collider& col = colliders_[c.collider];
         b.contact_normal[c.particle] = c.normal;
-        b.contact_speed[c.particle] = c.normal.dot(col.v + col.w.cross(c.point - col.com));
+        b.contact_speed[c.particle] = c.normal.dot(col.point_velocity(c.point));
     }
 }
 

@@ -4,7 +4,9 @@
 // node coordinates and 4-node tetrahedra. Errors name the file and line.
 #include <cmath>
 #include <cstdint>
+#include <algorithm>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <unordered_map>
@@ -67,6 +69,21 @@ private:
 
 constexpr long long kMaxCount = 50'000'000;
 
+// Keeps the nodes the tets use, in file order (meshers may leave points no tet uses, e.g. a duplicate
+// input point, and files carry geometry points of other elements).
+void drop_unused_nodes(TetMesh& m) {
+    std::vector<std::int64_t> remap(m.nodes.size(), -1);
+    for (const std::uint32_t t : m.tets) remap[t] = 0;
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+        if (remap[i] == 0) {
+            remap[i] = std::int64_t(kept);
+            m.nodes[kept++] = m.nodes[i];
+        }
+    m.nodes.resize(kept);
+    for (std::uint32_t& t : m.tets) t = std::uint32_t(remap[t]);
+}
+
 long long read_count(LineReader& r, std::istringstream& s, const char* what) {
     const long long n = r.read<long long>(s, what);
     if (n < 0 || n > kMaxCount) r.fail(std::string(what) + " = " + std::to_string(n) + " is out of range [0, 5e7]");
@@ -84,7 +101,7 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path) {
         const long long n = read_count(r, head, "the number of points");
         const int dim = r.read<int>(head, "the dimension");
         if (dim != 3) r.fail("dimension " + std::to_string(dim) + " (a tet mesh is 3)");
-        m.nodes.reserve(std::size_t(n));
+        m.nodes.reserve(std::size_t(std::min<long long>(n, 1 << 20)));  // a header may lie: grow past it
         for (long long i = 0; i < n; ++i) {
             std::istringstream s = r.next("a point");
             const long long index = r.read<long long>(s, "the point's index");
@@ -102,7 +119,7 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path) {
     const long long t = read_count(r, head, "the number of tetrahedra");
     const int per = r.read<int>(head, "the nodes per tetrahedron");
     if (per != 4 && per != 10) r.fail("nodes per tetrahedron = " + std::to_string(per) + " (4 or 10 expected)");
-    m.tets.reserve(std::size_t(4 * t));
+    m.tets.reserve(std::size_t(4 * std::min<long long>(t, 1 << 20)));
     for (long long e = 0; e < t; ++e) {
         std::istringstream s = r.next("a tetrahedron");
         r.read<long long>(s, "the tetrahedron's index");
@@ -114,19 +131,20 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path) {
             m.tets.push_back(std::uint32_t(i));
         }
     }
+    drop_unused_nodes(m);
     orient_tets(m.nodes, m.tets);
     return m;
 }
 
 void save_tetgen(const TetMesh& mesh, const std::string& node_path, const std::string& ele_path) {
-    std::ofstream node(node_path);
+    // Both files opened before either is written: a failure leaves no half pair behind.
+    std::ofstream node(node_path), ele(ele_path);
     if (!node) throw SoftError(node_path + ": cannot write the file");
+    if (!ele) throw SoftError(ele_path + ": cannot write the file");
     node << "# written by Sinew: <points> <dimension> <attributes> <boundary markers>\n" << mesh.nodes.size() << " 3 0 0\n";
-    node.precision(9);
+    node.precision(std::numeric_limits<Real>::max_digits10);  // round-trips exactly
     for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
         node << i << " " << mesh.nodes[i].x() << " " << mesh.nodes[i].y() << " " << mesh.nodes[i].z() << "\n";
-    std::ofstream ele(ele_path);
-    if (!ele) throw SoftError(ele_path + ": cannot write the file");
     ele << "# written by Sinew: <tetrahedra> <nodes per tet> <attributes>; (b-a).((c-a)x(d-a)) > 0\n"
         << mesh.tet_count() << " 4 0\n";
     for (std::size_t e = 0; e < mesh.tet_count(); ++e)
@@ -167,10 +185,11 @@ TetMesh load_gmsh(const std::string& path) {
                     const int parametric = r.read<int>(s, "parametric");
                     if (parametric != 0) r.fail("parametric node coordinates are not read");
                     const long long count = read_count(r, s, "numNodesInBlock");
-                    std::vector<long long> tags(static_cast<std::size_t>(count));
-                    for (long long& tag : tags) {
+                    std::vector<long long> tags;
+                    tags.reserve(static_cast<std::size_t>(std::min<long long>(count, 1 << 20)));
+                    for (long long k = 0; k < count; ++k) {
                         s = r.next("a node tag");
-                        tag = r.read<long long>(s, "a node tag");
+                        tags.push_back(r.read<long long>(s, "a node tag"));
                     }
                     for (const long long tag : tags) {
                         s = r.next("node coordinates");
@@ -236,24 +255,17 @@ TetMesh load_gmsh(const std::string& path) {
         }
     }
     if (tet_tags.empty()) throw SoftError(path + ": the file has no 4-node tetrahedra (element type 4)");
-    // Keep the nodes the tets use, in file order.
     TetMesh m;
-    std::vector<std::int64_t> remap(all_nodes.size(), -1);
+    m.nodes = std::move(all_nodes);
     m.tets.reserve(tet_tags.size());
     for (std::size_t k = 0; k < tet_tags.size(); ++k) {
         const auto it = node_of_tag.find(tet_tags[k]);
         if (it == node_of_tag.end())
             throw SoftError(path + ": tetrahedron " + std::to_string(k / 4) + " refers to node tag " + std::to_string(tet_tags[k]) +
                             ", which $Nodes does not define");
-        remap[it->second] = 0;
         m.tets.push_back(it->second);
     }
-    for (std::size_t i = 0; i < all_nodes.size(); ++i)
-        if (remap[i] == 0) {
-            remap[i] = std::int64_t(m.nodes.size());
-            m.nodes.push_back(all_nodes[i]);
-        }
-    for (std::uint32_t& t : m.tets) t = std::uint32_t(remap[t]);
+    drop_unused_nodes(m);
     orient_tets(m.nodes, m.tets);
     return m;
 }

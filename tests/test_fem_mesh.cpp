@@ -120,13 +120,13 @@ TEST_CASE("A bad FEM body is refused with a message naming where, and nothing is
     };
     SoftBodyDef d = good;
     d.fem.poisson = Real(0.5);
-    CHECK_THAT(refused(d), Catch::Contains("fem.poisson must be in (-1, 0.5)") && Catch::Contains("got 0.5"));
+    CHECK_THAT(refused(d), Catch::Contains("fem.poisson = 0.5 must be in (-1, 0.5)"));
     d = good;
     d.fem.young = 0;
-    CHECK_THAT(refused(d), Catch::Contains("fem.young must be > 0"));
+    CHECK_THAT(refused(d), Catch::Contains("fem.young = 0 must be finite and > 0"));
     d = good;
     d.fem.young = -5;
-    CHECK_THAT(refused(d), Catch::Contains("fem.young must be > 0"));
+    CHECK_THAT(refused(d), Catch::Contains("fem.young = -5 must be finite and > 0"));
     d = good;
     d.positions[3].y() = std::nan("");
     CHECK_THAT(refused(d), Catch::Contains("positions[3] must be finite"));

@@ -5,6 +5,9 @@
 // volume bound, and writes the .node/.ele pair Sinew already reads; gmsh does the same inside a far larger
 // package. TetGen runs here, in the tool, never in the library or at scene load: `sinew mesh` writes
 // OUT.node and OUT.ele once, and scenes load those (builder "tet-mesh").
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -51,6 +54,24 @@ void check_closed(const ObjMesh& m, const std::string& path) {
         throw MeshError(path + ": the surface encloses " + std::to_string(v) + " m^3: it must be closed and counter-clockwise from outside");
 }
 
+// Runs `tetgen SWITCHES INPUT` with its output into `log`, without a shell (the paths need no quoting);
+// returns its exit status, 127 if it cannot be started.
+int run_tetgen(const std::string& switches, const std::string& input, const std::string& log) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    std::string a0 = "tetgen", a1 = switches, a2 = input;
+    char* argv[] = {a0.data(), a1.data(), a2.data(), nullptr};
+    pid_t pid = 0;
+    const int started = posix_spawnp(&pid, "tetgen", &actions, nullptr, argv, environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (started != 0) return 127;
+    int status = 0;
+    if (waitpid(pid, &status, 0) < 0) return 127;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
 int mesh(const std::vector<std::string>& args) {
     std::vector<std::string> files;
     double max_volume = 0, quality = 1.4, scale = 1;
@@ -70,8 +91,6 @@ int mesh(const std::vector<std::string>& args) {
         ObjMesh surface = read_obj_file(in);
         for (Vec3& v : surface.vertices) v *= Real(scale);
         check_closed(surface, in);
-        if (std::system("command -v tetgen > /dev/null 2>&1") != 0)
-            throw MeshError("the tetgen program is not installed: run scripts/setup (Debian package tetgen)");
 
         // TetGen's .smesh input: the nodes, then one facet per triangle.
         const fs::path dir = fs::temp_directory_path() / ("sinew-mesh-" + std::to_string(::getpid()));
@@ -101,12 +120,12 @@ int mesh(const std::vector<std::string>& args) {
             std::snprintf(switches, sizeof switches, "-pzQq%ga%g", quality, max_volume);
         else
             std::snprintf(switches, sizeof switches, "-pzQq%g", quality);
-        const std::string cmd = std::string("tetgen ") + switches + " '" + (dir / "in.smesh").string() + "' > '" +
-                                (dir / "tetgen.log").string() + "' 2>&1";
-        if (std::system(cmd.c_str()) != 0) {
+        const int status = run_tetgen(switches, (dir / "in.smesh").string(), (dir / "tetgen.log").string());
+        if (status == 127) throw MeshError("the tetgen program is not installed: run scripts/setup (Debian package tetgen)");
+        if (status != 0) {
             std::ifstream log(dir / "tetgen.log");
             std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-            throw MeshError("tetgen failed on " + in + ": " + text);
+            throw MeshError("tetgen failed on " + in + " (status " + std::to_string(status) + "): " + text);
         }
         TetMesh m = load_tetgen((dir / "in.1.node").string(), (dir / "in.1.ele").string());
         check_tet_mesh(m.nodes, m.tets, in + " (as TetGen meshed it)");

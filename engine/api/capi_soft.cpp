@@ -155,24 +155,8 @@ sinew_status check_particle(const Target& t, int particle, const char* fn) {
     return SINEW_OK;
 }
 
-/// "" if the material is valid, else what is wrong with which field (the bounds of FemMaterial).
-std::string check_fem_material(const sinew_fem_material& m) {
-    if (!(std::isfinite(m.young) && m.young > 0)) return "material->young = " + to_text(m.young) + " must be finite and > 0 (Pa)";
-    if (!(m.poisson > -1 && m.poisson < 0.5f))
-        return "material->poisson = " + to_text(m.poisson) + " must be in (-1, 0.5) (0.5 is incompressible, where linear tets lock)";
-    if (!(std::isfinite(m.density) && m.density > 0))
-        return "material->density = " + to_text(m.density) + " must be finite and > 0 (kg/m^3)";
-    const struct {
-        const char* name;
-        float value;
-    } nonneg_fields[] = {{"mass_damping", m.mass_damping}, {"stiffness_damping", m.stiffness_damping}, {"yield", m.yield},
-                         {"creep", m.creep}, {"max_plastic", m.max_plastic}};
-    for (const auto& f : nonneg_fields)
-        if (!nonneg(f.value)) return std::string("material->") + f.name + " = " + to_text(f.value) + " must be finite and >= 0";
-    const int r = enum_value(m.rotation);
-    if (r < SINEW_FEM_LINEAR || r > SINEW_FEM_QR) return "material->rotation = " + std::to_string(r) + " is not a sinew_fem_rotation";
-    return {};
-}
+/// "" if the material is valid (an unknown rotation or a NaN named by its C field), else the problem.
+std::string check_fem_material(const sinew_fem_material& m);
 
 FemMaterial fem_material(const sinew_fem_material& m) {
     FemMaterial f;
@@ -188,6 +172,12 @@ FemMaterial fem_material(const sinew_fem_material& m) {
                  : enum_value(m.rotation) == SINEW_FEM_QR   ? FemRotation::QR
                                                               : FemRotation::Polar;
     return f;
+}
+
+std::string check_fem_material(const sinew_fem_material& m) {
+    const int r = enum_value(m.rotation);
+    if (r < SINEW_FEM_LINEAR || r > SINEW_FEM_QR) return "material->rotation = " + std::to_string(r) + " is not a sinew_fem_rotation";
+    return fem_material_problem(fem_material(m), "material->");
 }
 
 /// The checks of a tet body's creation beyond begin_create's: the material and a force-based method.
@@ -576,8 +566,7 @@ sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fe
         if (!bad.empty()) return invalid(fn, bad);
         SoftBody& b = t.world->soft().body(t.body);
         if (!b.fem) return invalid(fn, "the soft body has no tets (it is not an FEM solid)");
-        const FemMaterial m = fem_material(*material);
-        set_fem_material(b, m);
+        set_fem_material(b, fem_material(*material));  // checked above: does not throw
         t.world->soft().wake(t.body);
         return SINEW_OK;
     });

@@ -240,7 +240,7 @@ SINEW_API sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_s
 
 /* ---- FEM solids: tetrahedral meshes (docs/fem.md) ----------------------------------------------------
  * A tet body's particles are its mesh nodes, with lumped masses from the material's density
- * (def->total_mass and def->links are not read); its surface triangles are the mesh boundary. def->method
+ * (def->total_mass and def->links are checked as for every soft body but not used); its surface triangles are the mesh boundary. def->method
  * must be SINEW_SOFT_IMPLICIT (the usual choice), SINEW_SOFT_SEMI_IMPLICIT or SINEW_SOFT_EXPLICIT, and
  * def->iterations is the CG cap of implicit Euler (100 is a good start for a solid). Read nodes with
  * sinew_soft_get_positions, pin them with sinew_soft_set_pinned. */
@@ -271,7 +271,7 @@ SINEW_API sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sin
                                                  const sinew_fem_material* material, sinew_vec3 min_corner,
                                                  sinew_vec3 size, int nx, int ny, int nz, int split,
                                                  sinew_soft_body_id* out);
-/** A solid from a tet mesh: node_count (> 0) positions (m, world, the rest shape) and tet_count (> 0)
+/** A solid from a tet mesh: node_count (>= 4) positions (m, world, the rest shape) and tet_count (> 0)
  *  tets of 4 node indices each, positively oriented ((b-a).((c-a)x(d-a)) > 0). The mesh is checked first
  *  (an inverted or flat tet, duplicate or unused nodes, a face on three tets, an open boundary: the
  *  message names the tet and its volume). The arrays are copied. */

@@ -35,6 +35,8 @@ struct FemScene {
     Real friction = Real(0.5);
     Real thickness = Real(0.01);
     int refinement = 1;                ///< cells per cell of the scene file's box
+    int cg_cap = 100;                  ///< the scene's solver.iterations (Sinew's CG cap)
+    Real cg_tolerance = Real(1e-3);    ///< the scene's solver.cg_tolerance
 };
 
 /// The scene file's FEM body (one tet-box) with its cells multiplied by `refinement`. Throws SceneError

@@ -4,8 +4,8 @@
 // Configuration (issue 13): the scene's nodes, tets and lumped masses exactly (clamped nodes get mass 0,
 // Bullet's way of fixing a node), the body assembled as Bullet's own tet loaders do (appendTetra, the six
 // edge links, generateBoundaryFaces, initializeDmInverse, the tetra scratches);
-// btDeformableLinearElasticityForce with the scene's Lamé μ and λ and its Rayleigh β (Bullet's force reads
-// no α: its damping is stiffness-proportional only, so the benchmark scenes use β), and
+// btDeformableLinearElasticityForce with the scene's Lamé μ and λ and its Rayleigh α and β (Bullet's force
+// damps by -α m v and -β K v, as Sinew's Rayleigh damping does), and
 // btDeformableGravityForce. The default btDeformableBodySolver, one step of h per frame, soft-rigid
 // contacts against a static ground box by signed distance (Bullet's deformable demos' flags). Sleeping is
 // off on both sides so the timings measure the solver.
