@@ -35,6 +35,10 @@ enum class SoftMethod : std::uint8_t {
     Count
 };
 const char* soft_method_name(SoftMethod m);
+/// Explicit, semi-implicit or implicit Euler: the methods that read the force models (FEM needs one).
+inline bool is_force_based(SoftMethod m) {
+    return m == SoftMethod::ExplicitEuler || m == SoftMethod::SemiImplicitEuler || m == SoftMethod::ImplicitEuler;
+}
 /// Parses "verlet", "explicit", "semi-implicit", "implicit", "fast-ms"; returns false if unknown.
 bool parse_soft_method(const char* text, SoftMethod& out);
 

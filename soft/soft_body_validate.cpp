@@ -78,7 +78,7 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (d.tets.empty() && (!d.rest_positions.empty() || !d.plastic_strain.empty()))
         fail("rest_positions and plastic_strain belong to FEM bodies, and this one has no tets");
     if (!d.tets.empty()) {
-        if (d.method != SoftMethod::ExplicitEuler && d.method != SoftMethod::SemiImplicitEuler && d.method != SoftMethod::ImplicitEuler)
+        if (!is_force_based(d.method))
             fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") + soft_method_name(d.method));
         const std::string bad = fem_material_problem(d.fem, "fem.");
         if (!bad.empty()) fail(bad);

@@ -368,8 +368,7 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         } catch (const SoftError& e) {
             b.fail(e.what());
         }
-        if (!out.def.tets.empty() && out.def.method != SoftMethod::ExplicitEuler && out.def.method != SoftMethod::SemiImplicitEuler &&
-            out.def.method != SoftMethod::ImplicitEuler)
+        if (!out.def.tets.empty() && !is_force_based(out.def.method))
             (b.find("method") ? b.get("method") : b)
                 .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") +
                       soft_method_name(out.def.method));

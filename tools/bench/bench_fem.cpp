@@ -93,6 +93,27 @@ double beam_tip(const FemScene& s, const std::vector<Vec3>& x) {
     return count ? sum / count : 0;
 }
 
+FemTracker::FemTracker(const FemScene& scene) : s(scene), rest_volume(mesh_volume(scene.mesh, scene.mesh.nodes, nullptr)) {}
+
+void FemTracker::sample(const std::vector<Vec3>& x, int step, int steps) {
+    min_ratio = std::min(min_ratio, mesh_volume(s.mesh, x, nullptr) / rest_volume);
+    const int window = int(std::lround(1.0 / double(s.h)));  // the last second: a few periods of the beam
+    if (s.kind == FemSceneKind::Beam && step >= steps - window) {
+        tip_sum += beam_tip(s, x);
+        ++tip_count;
+    }
+}
+
+void FemTracker::finish(FemRun& run, const std::vector<Vec3>& x) const {
+    run.min_volume_ratio = min_ratio;
+    const double v = mesh_volume(s.mesh, x, &run.inverted);
+    if (s.kind == FemSceneKind::Beam) {
+        if (tip_count) run.tip_deflection = tip_sum / tip_count;
+    } else {
+        run.accuracy = v / rest_volume;
+    }
+}
+
 double mesh_volume(const TetMesh& mesh, const std::vector<Vec3>& x, int* inverted) {
     double v = 0;
     int bad = 0;
@@ -125,33 +146,6 @@ std::vector<SinewSetting> sinew_settings(FemSceneKind kind) {
     }
     return out;
 }
-
-// Tracks a run's accuracy figures step by step (outside the timed region).
-struct Tracker {
-    const FemScene& s;
-    double rest_volume;
-    double tip_sum = 0;
-    int tip_count = 0;
-    double min_ratio = 1e30;
-    explicit Tracker(const FemScene& scene) : s(scene), rest_volume(mesh_volume(scene.mesh, scene.mesh.nodes, nullptr)) {}
-    void sample(const std::vector<Vec3>& x, int step, int steps) {
-        min_ratio = std::min(min_ratio, mesh_volume(s.mesh, x, nullptr) / rest_volume);
-        const int window = int(std::lround(1.0 / double(s.h)));  // the last second: a few periods of the beam
-        if (s.kind == FemSceneKind::Beam && step >= steps - window) {
-            tip_sum += beam_tip(s, x);
-            ++tip_count;
-        }
-    }
-    void finish(FemRun& run, const std::vector<Vec3>& x) const {
-        run.min_volume_ratio = min_ratio;
-        const double v = mesh_volume(s.mesh, x, &run.inverted);
-        if (s.kind == FemSceneKind::Beam) {
-            if (tip_count) run.tip_deflection = tip_sum / tip_count;
-        } else {
-            run.accuracy = v / rest_volume;
-        }
-    }
-};
 
 FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock clock) {
     SoftSettings settings;
@@ -191,7 +185,7 @@ FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock
     run.cg_iterations = 0;
     run.tets = int(s.mesh.tet_count());
     run.nodes = int(s.mesh.nodes.size());
-    Tracker track(s);
+    FemTracker track(s);
     std::vector<double> ms;
     ms.reserve(steps);
     for (int i = 0; i < steps; ++i) {

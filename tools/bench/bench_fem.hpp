@@ -64,6 +64,20 @@ double beam_tip(const FemScene& s, const std::vector<Vec3>& x);
 /// Volume of the tets at x (m³) and the number with non-positive volume.
 double mesh_volume(const TetMesh& mesh, const std::vector<Vec3>& x, int* inverted);
 
+/// A run's accuracy figures, sampled step by step outside the timed region, the same for both engines:
+/// the smallest volume ratio, a beam's tip deflection averaged over the last second, and at the end the
+/// inverted tets and a block's final volume ratio.
+struct FemTracker {
+    const FemScene& s;
+    double rest_volume;
+    double tip_sum = 0;
+    int tip_count = 0;
+    double min_ratio = 1e30;
+    explicit FemTracker(const FemScene& scene);
+    void sample(const std::vector<Vec3>& x, int step, int steps);
+    void finish(FemRun& run, const std::vector<Vec3>& x) const;
+};
+
 /// Bullet 3.24's btDeformableBody in a btDeformableMultiBodyDynamicsWorld: the same nodes, tets and lumped
 /// masses, btDeformableLinearElasticityForce (its corotated linear element) with the scene's Lamé
 /// parameters and Rayleigh damping, btDeformableGravityForce, its default solver, one step of h per frame.

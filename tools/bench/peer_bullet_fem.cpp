@@ -126,13 +126,10 @@ FemRun run_bullet_fem(const FemScene& s, int steps, BenchClock clock) {
     run.variant = "corotated r" + std::to_string(s.refinement);
     run.tets = int(s.mesh.tet_count());
     run.nodes = int(n);
-    const double rest_volume = mesh_volume(s.mesh, s.mesh.nodes, nullptr);
+    FemTracker track(s);
     std::vector<double> ms;
     ms.reserve(steps);
     std::vector<Vec3> pos(n);
-    double tip_sum = 0, min_ratio = 1e30;
-    int tip_count = 0;
-    const int window = int(std::lround(1.0 / double(s.h)));
     const btScalar h = btScalar(s.h);
     for (int i = 0; i < steps; ++i) {
         const double t0 = bench_clock_ms(clock);
@@ -149,21 +146,10 @@ FemRun run_bullet_fem(const FemScene& s, int steps, BenchClock clock) {
             run.finite = false;
             break;
         }
-        min_ratio = std::min(min_ratio, mesh_volume(s.mesh, pos, nullptr) / rest_volume);
-        if (s.kind == FemSceneKind::Beam && i >= steps - window) {
-            tip_sum += beam_tip(s, pos);
-            ++tip_count;
-        }
+        track.sample(pos, i, steps);
     }
     run.ms_per_step_median = median(ms);
-    if (run.finite) {
-        run.min_volume_ratio = min_ratio;
-        const double v = mesh_volume(s.mesh, pos, &run.inverted);
-        if (s.kind == FemSceneKind::Beam)
-            run.tip_deflection = tip_count ? tip_sum / tip_count : std::nan("");
-        else
-            run.accuracy = v / rest_volume;
-    }
+    if (run.finite) track.finish(run, pos);
     return run;
 }
 #if defined(__GNUC__) && !defined(__clang__)
