@@ -265,6 +265,19 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
         if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
 }
 
+void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h) {
+    Particles& p = b.p;
+    p.x_next[i] += h * dv;  // the first iterate (set aside by the soft system until its solve)
+    p.v[i] += dv;
+    FastMassSpringCache& c = *b.fms_cache;  // made by predict_fast_mass_spring
+    const int r = c.row[i];
+    if (r < 0) return;
+    // M' y / h^2 with y = x + h keep (v + ...) and M' = m (1 + h drag): y moves by h keep dv, so the
+    // term moves by m (1 + h drag) keep dv / h = m dv / h.
+    const double s = double(p.mass[i]) / double(h);
+    for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(r) + k] += s * double(dv[k]);
+}
+
 void step_fast_mass_spring(SoftBody& b, Real h) {
     predict_fast_mass_spring(b, h);
     solve_fast_mass_spring(b, h);

@@ -81,6 +81,24 @@ Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const 
     return d;
 }
 
+ParticleCollision::PlaneView ParticleCollision::plane(std::size_t k) const {
+    const Plane& pl = planes_[k];
+    const Collider& col = (*colliders_)[pl.collider];
+    PlaneView out;
+    out.particle = pl.particle;
+    out.collider = pl.collider;
+    // The plane as found, moved rigidly with the collider if a coupling layer changed its pose since.
+    const Transform& then = found_at_[pl.collider];
+    if (col.xf.p == then.p && col.xf.q.coeffs() == then.q.coeffs()) {
+        out.point = pl.point;
+        out.normal = pl.normal;
+    } else {
+        out.point = col.xf.apply(then.apply_inverse(pl.point));
+        out.normal = col.xf.q * then.rotate_inverse(pl.normal);
+    }
+    return out;
+}
+
 int ParticleCollision::project_positions(SoftBody& b, Real h) {
     int moved = 0;
     const Real r = b.def.thickness;

@@ -40,6 +40,18 @@ public:
     /// ParticleContact per touching (particle, collider) to `out`.
     void finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out);
 
+    /// One collision plane as a coupling layer reads it between DetectCollisions and SolveVelocities: the
+    /// particle, the collider (index into the step's colliders) and the plane at the collider's current pose.
+    struct PlaneView {
+        std::uint32_t particle = 0;
+        std::uint32_t collider = 0;
+        Vec3 point = Vec3::Zero();   ///< on the collider's surface (world)
+        Vec3 normal = Vec3::UnitY(); ///< outward unit normal, from the collider towards the particle
+    };
+    std::size_t plane_count() const { return planes_.size(); }
+    /// Plane k (k < plane_count()), grouped by collider, then by particle.
+    PlaneView plane(std::size_t k) const;
+
 private:
     /// A particle's collision plane against one collider, in the world at the collider's pose when it
     /// was found (moved with the collider if the pose changes before the solve).

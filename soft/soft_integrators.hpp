@@ -52,6 +52,9 @@ void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision);
 void predict_fast_mass_spring(SoftBody& b, Real h);
 /// Liu 2013's local/global iterations from the predicted positions, and v = (x - x_prev) / h.
 void solve_fast_mass_spring(SoftBody& b, Real h);
+/// A velocity change dv of particle i after predict_fast_mass_spring (a coupling impulse): the predicted
+/// position and the inertial term y move by h dv, so the iterations do not pull the particle back.
+void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h);
 
 /// Projects particles onto their long-range attachment spheres (unilateral) and removes the outward
 /// velocity component of those it moved.

@@ -22,11 +22,11 @@ void solve_fast_mass_spring_stage(SoftBody& b, Real h, ParticleCollision*) {
 
 // Indexed by SoftMethod.
 const SoftMethodStages kStages[] = {
-    /* Verlet */ {predict_verlet, relax_verlet, true},
-    /* ExplicitEuler */ {step_explicit_euler, solve_long_range_only, false},
-    /* SemiImplicitEuler */ {step_semi_implicit_euler, solve_long_range_only, false},
-    /* ImplicitEuler */ {step_implicit_euler, solve_long_range_only, false},
-    /* FastMassSpring */ {predict_fast_mass_spring, solve_fast_mass_spring_stage, false},
+    /* Verlet */ {predict_verlet, relax_verlet, true, nullptr},
+    /* ExplicitEuler */ {step_explicit_euler, solve_long_range_only, false, nullptr},
+    /* SemiImplicitEuler */ {step_semi_implicit_euler, solve_long_range_only, false, nullptr},
+    /* ImplicitEuler */ {step_implicit_euler, solve_long_range_only, false, nullptr},
+    /* FastMassSpring */ {predict_fast_mass_spring, solve_fast_mass_spring_stage, false, shift_fast_mass_spring_prediction},
 };
 static_assert(sizeof(kStages) / sizeof(kStages[0]) == std::size_t(SoftMethod::Count), "one row per SoftMethod");
 

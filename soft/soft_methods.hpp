@@ -24,6 +24,11 @@ struct SoftMethodStages {
     /// Friction is applied at the position level inside solve_constraints (Jakobsen: Verlet), so the
     /// contact pass handles only restitution.
     bool position_friction;
+    /// A coupling layer changed particle i's velocity by dv between IntegrateVelocities and SolveVelocities
+    /// (an impulse from the rigid solve): the method's prediction follows, as if the impulse had been one
+    /// of its forces. Null: the predicted position moves by h dv and the velocity by dv (enough for every
+    /// method whose solve starts from the predicted positions alone).
+    void (*shift_prediction)(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h);
 };
 
 /// The row of method m (throws SoftError for a value outside the enum).

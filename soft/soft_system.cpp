@@ -355,6 +355,24 @@ void SoftSystem::solve_velocities(Real h) {
     }
 }
 
+const ParticleCollision* SoftSystem::collision(std::uint32_t slot) const {
+    if (slot >= bodies_.size() || slot >= collision_.size() || !slots_.alive(slot) || !bodies_[slot].stepping)
+        return nullptr;
+    return &collision_[slot];
+}
+
+void SoftSystem::change_predicted_velocity(std::uint32_t slot, std::uint32_t i, const Vec3& dv, Real h) {
+    SoftBody& b = bodies_[slot];
+    if (b.p.inv_mass[i] == 0) return;  // pinned or attached: its target decides
+    const SoftMethodStages& m = soft_method_stages(b.def.method);
+    if (m.shift_prediction) {
+        m.shift_prediction(b, i, dv, h);
+        return;
+    }
+    b.p.x_next[i] += h * dv;
+    b.p.v[i] += dv;
+}
+
 void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     // Only implicit Euler reads them (its constraint filter), for FEM bodies so far: on the springs of a
     // pressure ball resting on the ground the filter left a rocking cycle of 0.4-3.3 mJ (one rim particle

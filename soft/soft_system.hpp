@@ -85,6 +85,14 @@ public:
     /// move when bodies are created between steps): read colliders from hooks, not between steps.
     std::vector<Collider>& colliders() { return colliders_; }
     const std::vector<Collider>& colliders() const { return colliders_; }
+    /// Body `slot`'s collision planes of this step (found in DetectCollisions), or null if the body is
+    /// not stepping: a coupling layer reads them between DetectCollisions and SolveVelocities.
+    const ParticleCollision* collision(std::uint32_t slot) const;
+    /// A coupling layer's velocity change of particle i of the stepping body `slot`, between
+    /// DetectCollisions and SolveVelocities (an impulse the rigid solve gave it): the body's method moves
+    /// its prediction as if the impulse had been one of its forces. After SolveVelocities, change
+    /// Particles::v directly: IntegratePositions moves the particle by h times the change.
+    void change_predicted_velocity(std::uint32_t slot, std::uint32_t i, const Vec3& dv, Real h);
     /// Particle contacts found in the last step, body slot order.
     const std::vector<ParticleContact>& contacts() const { return contacts_; }
 

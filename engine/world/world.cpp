@@ -24,7 +24,7 @@ World::World(const WorldSettings& settings) : settings_(settings) {
     settings_.soft.gravity = soft.gravity;
     soft_ = std::make_unique<SoftSystem>(soft);
     pipeline_.add_system(soft_.get());
-    coupling_ = std::make_unique<OneWayCoupling>(pipeline_, *rigid_, *soft_);
+    coupling_ = std::make_unique<CouplingLayer>(pipeline_, *rigid_, *soft_);
 }
 
 World::~World() = default;

@@ -1,10 +1,10 @@
-// The World composes the systems (rigid, then soft) and the coupling layer between them (one-way for now), and
+// The World composes the systems (rigid, then soft) and the coupling layer between them (coupling/coupling_layer.hpp), and
 // steps them through the pipeline with a fixed internal step and an accumulator for variable frame times.
 #pragma once
 
 #include <memory>
 
-#include "coupling/one_way_coupling.hpp"
+#include "coupling/coupling_layer.hpp"
 #include "engine/core/pipeline.hpp"
 #include "rigid/rigid_system.hpp"
 #include "soft/soft_system.hpp"
@@ -31,6 +31,11 @@ public:
     const SoftSystem& soft() const { return *soft_; }
     Pipeline& pipeline() { return pipeline_; }
     const Pipeline& pipeline() const { return pipeline_; }
+    CouplingLayer& coupling() { return *coupling_; }
+    const CouplingLayer& coupling() const { return *coupling_; }
+    /// The coupling strategy and per-pair overrides from the next step (CouplingError names the problem;
+    /// nothing changes then).
+    void set_coupling(const CouplingSettings& s) { coupling_->set_settings(s); }
     const WorldSettings& settings() const { return settings_; }
     /// Validates (throws std::invalid_argument naming the field) and applies.
     void set_time_step(Real h);
@@ -54,7 +59,7 @@ private:
     Pipeline pipeline_;
     std::unique_ptr<RigidSystem> rigid_;
     std::unique_ptr<SoftSystem> soft_;
-    std::unique_ptr<OneWayCoupling> coupling_;
+    std::unique_ptr<CouplingLayer> coupling_;
     Real accumulator_ = 0;
     double time_ = 0;
     bool in_step_ = false;

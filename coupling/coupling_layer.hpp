@@ -1,0 +1,71 @@
+// The coupling layer between the rigid and the soft system: every strategy of coupling/coupling_settings.hpp
+// in one place, chosen per world and per soft-rigid pair.
+//
+// What every strategy shares is the one-way part (coupling/one_way_coupling.hpp): rigid bodies become
+// the soft system's colliders and carry attached particles. On top of it (docs/ARCHITECTURE.md, the step
+// pipeline; seed 001 Figure 9):
+//   two-way  the particle rows (coupling/particle_rows.hpp) are a row source of the rigid solver, built
+//            from the soft system's collision planes and solved in every rigid iteration and sub-step.
+//            Before soft SolveVelocities the rows' velocity changes go into the soft bodies' predictions;
+//            after it (every velocity solved, no position integrated) the impulses the soft contact pass
+//            still had to give those particles go back to the rigid bodies, and the rows are solved again
+//            against the result (exchange iterations);
+//   hybrid   after soft SolveVelocities the rigid body takes `gain` times the opposite of the impulses the
+//            soft contact pass gave the particles.
+// The impulses soft bodies gave rigid bodies in the last step are kept (impulses()) for events.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "coupling/coupling_settings.hpp"
+#include "coupling/one_way_coupling.hpp"
+#include "coupling/particle_rows.hpp"
+
+namespace sinew {
+
+struct CouplingError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+class CouplingLayer {
+public:
+    /// Registers the hooks and the row source; `rigid` and `soft` must already be systems of `pipeline`.
+    CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft);
+    ~CouplingLayer();
+    CouplingLayer(const CouplingLayer&) = delete;
+    CouplingLayer& operator=(const CouplingLayer&) = delete;
+
+    const CouplingSettings& settings() const { return settings_; }
+    /// Validates (CouplingError naming the field, or the pair and the body it names; nothing changes)
+    /// and applies from the next step.
+    void set_settings(const CouplingSettings& s);
+    /// The strategy acting between two bodies now.
+    CouplingStrategy strategy(SoftBodyId soft, BodyId rigid) const { return coupling_strategy_of(settings_, soft, rigid); }
+    /// What soft bodies did to rigid bodies in the last step, one record per (particle, rigid body)
+    /// contact (two-way rows and reactions sent back; the one-way contacts push nothing back).
+    const std::vector<CouplingImpulse>& impulses() const { return impulses_; }
+    OneWayCoupling& kinematics() { return kinematics_; }
+
+private:
+    void before_soft_solve(Real h);
+    void after_soft_solve();
+    void after_step();
+    /// The opposite of the impulses the soft contact pass gave particles touching dynamic rigid bodies
+    /// under `strategy`, times `gain`, applied to those bodies' velocities now.
+    void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
+    bool any(CouplingStrategy s) const;
+
+    Pipeline& pipeline_;
+    RigidSystem& rigid_;
+    SoftSystem& soft_;
+    CouplingSettings settings_;
+    OneWayCoupling kinematics_;
+    ParticleRows rows_;
+    std::vector<CouplingImpulse> impulses_;
+    std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
+    int hooks_[3] = {0, 0, 0};
+};
+
+}  // namespace sinew

@@ -1,0 +1,74 @@
+#include "coupling/coupling_settings.hpp"
+
+#include <cmath>
+
+#include "engine/core/format.hpp"
+
+namespace sinew {
+
+namespace {
+const char* const kNames[] = {"one-way", "two-way", "hybrid"};
+static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
+}  // namespace
+
+const char* coupling_strategy_name(CouplingStrategy s) {
+    const auto i = std::size_t(s);
+    return i < std::size_t(CouplingStrategy::Count) ? kNames[i] : "unknown";
+}
+
+bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out) {
+    for (std::size_t i = 0; i < std::size_t(CouplingStrategy::Count); ++i)
+        if (text == kNames[i]) {
+            out = CouplingStrategy(i);
+            return true;
+        }
+    return false;
+}
+
+std::string coupling_strategy_list() {
+    std::string out;
+    for (std::size_t i = 0; i < std::size_t(CouplingStrategy::Count); ++i) {
+        if (i) out += ", ";
+        out += kNames[i];
+    }
+    return out;
+}
+
+std::string coupling_settings_problem(const CouplingSettings& s) {
+    if (std::size_t(s.strategy) >= std::size_t(CouplingStrategy::Count))
+        return "coupling strategy " + std::to_string(int(s.strategy)) + " is unknown (known: " +
+               coupling_strategy_list() + ")";
+    if (s.exchange_iterations < 1 || s.exchange_iterations > 100)
+        return "coupling exchange_iterations must be in [1, 100], got " + std::to_string(s.exchange_iterations);
+    if (!std::isfinite(s.gain) || s.gain < 0 || s.gain > 1)
+        return "coupling gain must be in [0, 1], got " + to_text(s.gain);
+    for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+        const CouplingPair& p = s.pairs[k];
+        if (std::size_t(p.strategy) >= std::size_t(CouplingStrategy::Count))
+            return "coupling pair " + std::to_string(k) + ": strategy " + std::to_string(int(p.strategy)) +
+                   " is unknown (known: " + coupling_strategy_list() + ")";
+        if (p.soft.is_null()) return "coupling pair " + std::to_string(k) + ": no soft body";
+    }
+    return {};
+}
+
+}  // namespace sinew
+
+namespace sinew {
+
+CouplingStrategy coupling_strategy_of(const CouplingSettings& settings, SoftBodyId soft, BodyId rigid) {
+    CouplingStrategy out = settings.strategy;
+    bool exact = false;
+    for (const CouplingPair& p : settings.pairs) {
+        if (p.soft != soft) continue;
+        if (p.rigid.is_null()) {
+            if (!exact) out = p.strategy;
+        } else if (p.rigid == rigid) {
+            out = p.strategy;
+            exact = true;
+        }
+    }
+    return out;
+}
+
+}  // namespace sinew

@@ -1,0 +1,66 @@
+// How rigid and soft bodies act on each other: the coupling strategy of a world, and per soft-rigid pair
+// overrides (seed 001 ch.4 §1 and ch.5 §6; ../shared/THEORY.md §6-7; docs/coupling.md).
+//
+//   one-way   rigid bodies push soft ones and carry their attached particles; soft bodies push nothing
+//             back (a kinematic arm under a cloth; O'Brien 2000's one-way case).
+//   two-way   soft particles touching a dynamic rigid body enter the rigid solve as point masses
+//             (Sifakis 2007: rotational terms zero), solved in every rigid iteration and sub-step with
+//             friction; what the soft system's own solve does to those particles afterwards (its links
+//             pulling them back in) is sent back as the opposite impulse, and the rows are solved again
+//             against the result `exchange_iterations - 1` more times. Momentum is exchanged exactly.
+//   hybrid    one-way contacts, and the rigid body takes `gain` times the impulse the soft contacts gave
+//             the particles (an estimate of the reaction from the soft side's momentum change at the
+//             contacts: O'Brien 2000's ball through a net); gain 1 conserves momentum at the contacts,
+//             gain 0 is one-way.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rigid/rigid_body.hpp"
+#include "soft/soft_body.hpp"
+
+namespace sinew {
+
+enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Count };
+
+/// "one-way", "two-way", "hybrid".
+const char* coupling_strategy_name(CouplingStrategy s);
+/// Parses a name of coupling_strategy_name (false if unknown).
+bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);
+/// "one-way, two-way, hybrid": for error messages.
+std::string coupling_strategy_list();
+
+/// A strategy for one soft body against one rigid body (or against every rigid body: `rigid` null).
+struct CouplingPair {
+    SoftBodyId soft;
+    BodyId rigid;  ///< null: every rigid body
+    CouplingStrategy strategy = CouplingStrategy::TwoWay;
+};
+
+struct CouplingSettings {
+    CouplingStrategy strategy = CouplingStrategy::OneWay;  ///< for every pair no override names
+    /// Two-way: passes of the particle rows per step (the rigid solve's, then one more after each
+    /// exchange of the soft solve's reaction, up to this count), >= 1.
+    int exchange_iterations = 2;
+    /// Hybrid: the share of the soft contacts' impulse sent back to the rigid body, in [0, 1].
+    Real gain = 1;
+    /// Later entries win over earlier ones; a pair naming one rigid body wins over one naming none.
+    std::vector<CouplingPair> pairs;
+};
+
+/// What is wrong with `s` (names the field and, for a pair, its index), or "" if nothing. Pairs are
+/// checked for well-formed values only; whether their bodies exist is the world's check.
+std::string coupling_settings_problem(const CouplingSettings& s);
+
+}  // namespace sinew
+
+namespace sinew {
+
+/// The strategy of a soft-rigid pair under `settings`: the last pair naming both bodies, else the last
+/// naming the soft body and every rigid body, else the world's strategy. Linear in the pairs (a scene
+/// names a handful); layers call it once per (soft body, collider) per step, not per particle.
+CouplingStrategy coupling_strategy_of(const CouplingSettings& settings, SoftBodyId soft, BodyId rigid);
+
+}  // namespace sinew
