@@ -6,6 +6,10 @@
 // pipeline; seed 001 Figure 9):
 //   two-way  the particle rows (coupling/particle_rows.hpp) are a row source of the rigid solver, built
 //            from the soft system's collision planes and solved in every rigid iteration and sub-step.
+//            An implicit Euler body holds its contact particles' normal velocity in its own solve (Baraff &
+//            Witkin's filter, soft/implicit_euler.cpp): the impulse that holding took is sent to the
+//            rigid body before the rigid solve, so the body feels the cloth's springs, not only the
+//            particles' inertia (which alone let a 1 kg ball fall through a 0.5 kg cloth).
 //            Before soft SolveVelocities the rows' velocity changes go into the soft bodies' predictions;
 //            after it (every velocity solved, no position integrated) the impulses the soft contact pass
 //            still had to give those particles go back to the rigid bodies, and the rows are solved again
@@ -49,6 +53,11 @@ public:
     OneWayCoupling& kinematics() { return kinematics_; }
 
 private:
+    void begin_step(Real h);
+    /// Two-way: the impulses implicit Euler's contact constraints gave particles held against dynamic
+    /// rigid bodies (SoftBody::contact_held), sent back before the rigid solve.
+    void send_back_held_impulses();
+    void hold_at_rigid_speed(SoftBody& b, SoftBodyId id, Real h);
     void before_soft_solve(Real h);
     void after_soft_solve();
     void after_step();
@@ -65,7 +74,8 @@ private:
     ParticleRows rows_;
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
-    int hooks_[3] = {0, 0, 0};
+    std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
+    int hooks_[5] = {0, 0, 0, 0, 0};
 };
 
 }  // namespace sinew

@@ -38,6 +38,7 @@ struct CouplingImpulse {
     Vec3 point = Vec3::Zero();   ///< on the rigid body's surface (world)
     Vec3 normal = Vec3::UnitY(); ///< unit, from the rigid body towards the particle
     Vec3 impulse = Vec3::Zero(); ///< received by the rigid body over the step (N s)
+    bool held = false;           ///< the impulse implicit Euler's contact constraint took (sent before the rigid solve)
 };
 
 class ParticleRows final : public ConstraintRows {

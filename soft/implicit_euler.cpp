@@ -77,6 +77,7 @@ void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::v
     for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
     for (const ForceModel* model : force_models())
         if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) q[r.particle] += (r.mass * r.normal.dot(u[r.particle])) * r.normal;
     for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
@@ -140,7 +141,6 @@ void step_implicit_euler(SoftBody& b, Real h) {
         }
         c.rhs[i] = h * f[i] + h2l * c.rhs[i];
     }
-    c.cg.invert_blocks();
 
     // Contacts (Baraff & Witkin 1998 §5.3): a particle the last contact pass found touching a collider,
     // and not moving away from it, gets its normal velocity change fixed to z = (collider speed - v_n · n) n
@@ -151,14 +151,28 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // cube of 1,080 tets, E = 1e5, dropped 0.5 m), and a 20k-tet block ends its landing with no inverted
     // tet (674 without). The soft system records contacts for FEM bodies only (SoftSystem::record_contacts).
     c.contact_rows.clear();
+    c.coupled_rows.clear();
+    const bool coupled = b.contact_mass.size() == n;
     if (b.contact_normal.size() == n)
         for (std::uint32_t i = 0; i < n; ++i) {
             const Vec3& nrm = b.contact_normal[i];
             if (p.inv_mass[i] == 0 || nrm.isZero()) continue;
             const Real approach = b.contact_speed[i] - nrm.dot(p.v[i]);  // > 0: moving into the collider
             if (approach < Real(-1e-3) || c.contact_released[i]) continue;  // leaving, or pulled last step
+            if (coupled && b.contact_mass[i] > 0) {
+                // The body's share joins the particle (an inelastic merge along n), then both take the
+                // forces: mass n nᵀ on the diagonal, its momentum relative to the particle on the right.
+                const Real a = b.contact_mass[i];
+                c.coupled_rows.push_back({i, nrm, a, b.contact_speed[i]});
+                c.rhs[i] += (a * approach) * nrm;
+                Real* B = c.cg.block(i);
+                B[0] += a * nrm.x() * nrm.x(), B[1] += a * nrm.y() * nrm.y(), B[2] += a * nrm.z() * nrm.z();
+                B[3] += a * nrm.x() * nrm.y(), B[4] += a * nrm.x() * nrm.z(), B[5] += a * nrm.y() * nrm.z();
+                continue;
+            }
             c.contact_rows.push_back({i, nrm, std::max(approach, Real(0)) * nrm, nrm.dot(c.rhs[i])});
         }
+    c.cg.invert_blocks();
     if (!c.contact_rows.empty()) {
         std::vector<Vec3>& z = c.force;  // free now: the forces are in rhs
         std::fill(z.begin(), z.end(), Vec3::Zero());
@@ -195,15 +209,31 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // change is the contact pass's friction budget (SoftBody::contact_dvn).
     std::fill(c.contact_released.begin(), c.contact_released.end(), std::uint8_t(0));
     if (b.contact_dvn.size() != n) b.contact_dvn.assign(n, Real(0));
+    if (b.contact_held.size() != n) b.contact_held.assign(n, Real(0));
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
+    std::fill(b.contact_held.begin(), b.contact_held.end(), Real(0));
     if (!c.contact_rows.empty()) {
         system_product(b, c, c.dv, c.cg.q);
         for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
             const Real impulse = r.normal.dot(c.cg.q[r.particle]) - r.rhs_normal;
             if (impulse < 0)
                 c.contact_released[r.particle] = 1;
-            else
+            else {
                 b.contact_dvn[r.particle] = impulse / c.mass[r.particle];
+                b.contact_held[r.particle] = impulse;
+            }
+        }
+    }
+
+    // The coupled shares: each ends at the particle's normal velocity; the impulse it gave the particle,
+    // a (speed - n · v'), is what the coupling layer takes from the rigid body (either sign: the solve
+    // included it). One that pulled is released for the next step, as the constraints above are.
+    if (!c.coupled_rows.empty()) {
+        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+            const Real held = r.mass * (r.speed - r.normal.dot(p.v[r.particle] + c.dv[r.particle]));
+            b.contact_held[r.particle] = held;
+            if (held < 0) c.contact_released[r.particle] = 1;
+            else b.contact_dvn[r.particle] = held / c.mass[r.particle];  // the contact pass's friction budget
         }
     }
 

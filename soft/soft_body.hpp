@@ -155,6 +155,19 @@ struct SoftBody {
     /// step: the contact pass adds it to its Coulomb friction budget (mu times the normal change), since
     /// the solve, not the pass, stopped the particle. Empty: none.
     std::vector<Real> contact_dvn;
+    /// Per particle, with contact_normal: the owner of the collider it touched (Collider::owner) and the
+    /// impulse (N s, >= 0, along contact_normal) the solve's contact constraint gave it this step. A
+    /// two-way coupling layer sends that impulse back to the owner. Empty: none.
+    std::vector<std::uint32_t> contact_owner;
+    std::vector<Real> contact_held;
+    /// Implicit Euler holds this body's contacts in its solve (recorded by the contact pass). Always for
+    /// FEM bodies; for mass-spring bodies when a two-way coupling layer asks (it needs the held impulse).
+    bool hold_contacts = false;
+    /// Per particle, set by a two-way coupling layer before the step (empty or 0: none): the share (kg) of
+    /// the dynamic rigid body it touches (contact_owner) that implicit Euler moves with it along
+    /// contact_normal, starting at contact_speed; contact_held then reports the impulse that share gave
+    /// the particle, for the layer to take from the body.
+    std::vector<Real> contact_mass;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

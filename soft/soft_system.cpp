@@ -378,15 +378,20 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     // pressure ball resting on the ground the filter left a rocking cycle of 0.4-3.3 mJ (one rim particle
     // entering and leaving contact every second) where the projection alone settles below 1 mJ, so
     // mass-spring bodies keep the projection until that is understood. The arrays are sized once.
-    if (b.def.method != SoftMethod::ImplicitEuler || !b.fem) return;
+    if (b.def.method != SoftMethod::ImplicitEuler || !(b.fem || b.hold_contacts)) {
+        b.contact_normal.clear();
+        return;
+    }
     const std::size_t n = b.p.size();
     b.contact_normal.assign(n, Vec3::Zero());
     b.contact_speed.assign(n, Real(0));
+    b.contact_owner.assign(n, kNoOwner);
     for (std::size_t k = first; k < contacts_.size(); ++k) {
         const ParticleContact& c = contacts_[k];
         const Collider& col = colliders_[c.collider];
         b.contact_normal[c.particle] = c.normal;
         b.contact_speed[c.particle] = c.normal.dot(col.point_velocity(c.point));
+        b.contact_owner[c.particle] = col.owner;
     }
 }
 

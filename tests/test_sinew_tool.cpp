@@ -160,7 +160,7 @@ TEST_CASE("run of the showcase prints one finite JSON line", "[tool]") {
     const nlohmann::ordered_json j = nlohmann::ordered_json::parse(lines[0]);
     std::vector<std::string> keys;
     for (const auto& item : j.items()) keys.push_back(item.key());
-    CHECK(keys == std::vector<std::string>{"scene", "steps", "bodies", "soft_bodies", "particles", "ms_per_step_median",
+    CHECK(keys == std::vector<std::string>{"scene", "steps", "bodies", "soft_bodies", "particles", "coupling", "ms_per_step_median",
                                            "max_penetration", "kinetic_energy", "max_stretch", "finite"});
     CHECK(j["scene"] == "showcase-falling-boxes");
     CHECK(j["steps"] == 30);

@@ -23,6 +23,7 @@ struct RunOptions {
     std::optional<double> dt;
     std::string record;
     std::string save;
+    std::optional<CouplingStrategy> coupling;
 };
 
 RunOptions parse_options(const std::vector<std::string>& args) {
@@ -39,6 +40,12 @@ RunOptions parse_options(const std::vector<std::string>& args) {
         } else if (is_option(a, "--save")) {
             o.save = option_value(args, i, "--save");
             if (o.save.empty()) throw UsageError("--save needs a file name");
+        } else if (is_option(a, "--coupling")) {
+            const std::string name = option_value(args, i, "--coupling");
+            CouplingStrategy c;
+            if (!parse_coupling_strategy(name, c))
+                throw UsageError("unknown coupling strategy '" + name + "' (expected one of: " + coupling_strategy_list() + ")");
+            o.coupling = c;
         } else if (!a.empty() && a[0] == '-') {
             throw UsageError("unknown option '" + a + "'");
         } else if (o.scene.empty()) {
@@ -77,6 +84,11 @@ int run(const std::vector<std::string>& args) {
         scene.settings.time_step = Real(*opt.dt);
     }
     const long long steps = opt.steps ? *opt.steps : scene.steps;
+    if (opt.coupling) {
+        // The strategy for every pair: the scene's per-pair overrides are dropped with it.
+        scene.coupling.settings.strategy = *opt.coupling;
+        scene.coupling.pairs.clear();
+    }
 
     std::vector<BodyId> ids;
     const std::unique_ptr<World> world = build_world(scene, &ids);
@@ -117,6 +129,8 @@ int run(const std::vector<std::string>& args) {
     out["bodies"] = rigid.body_count();
     out["soft_bodies"] = soft.body_count();
     out["particles"] = soft.particle_count();
+    out["coupling"] = coupling_strategy_name(world->coupling().settings().strategy);
+    if (!world->coupling().settings().pairs.empty()) out["coupling_pairs"] = world->coupling().settings().pairs.size();
     out["ms_per_step_median"] = round_sig(median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))
                                                             : nlohmann::ordered_json(nullptr);
@@ -132,17 +146,20 @@ int run(const std::vector<std::string>& args) {
 
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
-    "usage: sinew run SCENE.json [--steps N] [--dt H] [--record FILE] [--save FILE]\n"
+    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--record FILE] [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
-    "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"ms_per_step_median\" (wall\n"
+    "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"coupling\" (the world's\n"
+    "   strategy; \"coupling_pairs\": how many pairs override it), \"ms_per_step_median\" (wall\n"
     "   time), \"max_penetration\" (m, deepest rigid contact over the run), \"kinetic_energy\" (J, rigid and\n"
     "   soft, at the end), \"max_stretch\" (largest current/rest length of a soft link at the end), \"finite\"}\n"
     "A step that leaves any body state NaN or infinite stops the run with \"finite\": false.\n"
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
+    "  --coupling S    rigid-soft coupling for every pair: one-way, two-way or hybrid (overrides the\n"
+    "                  scene's \"coupling\" section, its pairs included; docs/coupling.md)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md)\n"
     "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"

@@ -73,6 +73,20 @@ struct SceneSoftBody {
     std::vector<Vec3> velocities;
 };
 
+/// The "coupling" section: the world's strategy and settings, and per-pair overrides naming bodies by
+/// their index in SceneDesc (build_world turns them into ids).
+struct SceneCoupling {
+    CouplingSettings settings;  ///< pairs left empty here
+    struct Pair {
+        std::string json_path;  ///< "/coupling/pairs/0"
+        std::size_t soft = 0;   ///< into SceneDesc::soft_bodies
+        bool every_rigid = true;
+        std::size_t rigid = 0;  ///< into SceneDesc::bodies, unless every_rigid
+        CouplingStrategy strategy = CouplingStrategy::TwoWay;
+    };
+    std::vector<Pair> pairs;
+};
+
 /// A parsed and validated scene.
 struct SceneDesc {
     std::string file;         ///< where it came from (path or origin name)
@@ -83,6 +97,7 @@ struct SceneDesc {
     std::vector<SceneBody> bodies;  ///< "bodies" in file order, then each generator's bodies in order
     std::vector<SceneJoint> joints; ///< "joints" in file order
     std::vector<SceneSoftBody> soft_bodies;  ///< "soft_bodies" in file order
+    SceneCoupling coupling;
 };
 
 constexpr const char* kSceneFormat = "sinew-scene";  ///< value of the "format" key

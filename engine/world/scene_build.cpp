@@ -32,6 +32,8 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
             throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
         }
     }
+    std::vector<SoftBodyId> soft_ids;
+    soft_ids.reserve(scene.soft_bodies.size());
     for (const SceneSoftBody& soft : scene.soft_bodies) {
         SoftBodyDef def = soft.def;
         for (std::size_t k = 0; k < def.attachments.size(); ++k)
@@ -42,6 +44,7 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         } catch (const std::invalid_argument& e) {  // SoftError
             throw SceneError(scene.file, soft.json_path, "soft body \"" + soft.name + "\": " + e.what());
         }
+        soft_ids.push_back(id);
         if (!soft.velocities.empty()) {  // per-particle state of a saved body (builder "explicit")
             // Pinned particles keep zero; attached ones take theirs (their body's point velocity), which
             // the next step overwrites anyway.
@@ -51,6 +54,19 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
             for (std::size_t i = 0; i < p.size() && i < soft.velocities.size(); ++i)
                 if (!pinned[i]) p.v[i] = soft.velocities[i];
         }
+    }
+    CouplingSettings coupling = scene.coupling.settings;
+    for (const SceneCoupling::Pair& pair : scene.coupling.pairs) {
+        CouplingPair p;
+        p.soft = soft_ids.at(pair.soft);
+        if (!pair.every_rigid) p.rigid = out.at(pair.rigid);
+        p.strategy = pair.strategy;
+        coupling.pairs.push_back(p);
+    }
+    try {
+        world->set_coupling(coupling);
+    } catch (const std::invalid_argument& e) {  // CouplingError: the parser checked the values already
+        throw SceneError(scene.file, "/coupling", e.what());
     }
     return world;
 }

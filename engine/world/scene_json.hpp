@@ -134,5 +134,8 @@ namespace sinew::scene_json {
 /// Reads the "soft_bodies" array into desc.soft_bodies (engine/world/scene_soft.cpp). Attachments name
 /// bodies of desc.bodies, so it runs after the bodies and generators.
 void parse_soft_bodies(const Node& array, SceneDesc& desc);
+/// Reads the "coupling" object into desc.coupling (engine/world/scene_coupling.cpp); its pairs name soft
+/// and rigid bodies, so it runs after both.
+void parse_coupling(const Node& node, SceneDesc& desc);
 
 }  // namespace sinew::scene_json

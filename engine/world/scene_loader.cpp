@@ -71,11 +71,7 @@ public:
         }
         if (auto n = root_.find("joints")) parse_joints(*n);  // after the bodies: joints name them
         if (auto n = root_.find("soft_bodies")) parse_soft_bodies(*n, desc_);  // attachments name bodies
-        if (auto n = root_.find("coupling")) {
-            if (!(n->json().is_array() && n->json().empty()))
-                n->fail("coupling is not supported yet (reserved for a later version of the format); "
-                        "leave the key out or give an empty array");
-        }
+        if (auto n = root_.find("coupling")) parse_coupling(*n, desc_);  // pairs name both kinds of body
         return std::move(desc_);
     }
 

@@ -383,6 +383,25 @@ std::string scene_text(const World& world, const std::string& name, const std::s
 
     Json soft = scene_save::soft_bodies_json(world, origin);
     if (!soft.empty()) doc["soft_bodies"] = std::move(soft);
+
+    // Coupling: written when it is not the default; pairs naming bodies that no longer exist are dropped.
+    const CouplingSettings& c = world.coupling().settings();
+    const CouplingSettings defaults;
+    Json pairs = Json::array();
+    for (const CouplingPair& p : c.pairs) {
+        if (!world.soft().valid(p.soft) || (!p.rigid.is_null() && !rigid.valid(p.rigid))) continue;
+        Json j = {{"soft", "soft-" + std::to_string(p.soft.index)}, {"strategy", coupling_strategy_name(p.strategy)}};
+        if (!p.rigid.is_null()) j["rigid"] = body_name(p.rigid.index);
+        pairs.push_back(std::move(j));
+    }
+    if (c.strategy != defaults.strategy || c.exchange_iterations != defaults.exchange_iterations ||
+        c.gain != defaults.gain || !pairs.empty()) {
+        Json j = {{"strategy", coupling_strategy_name(c.strategy)},
+                  {"exchange_iterations", c.exchange_iterations},
+                  {"gain", c.gain}};
+        if (!pairs.empty()) j["pairs"] = std::move(pairs);
+        doc["coupling"] = std::move(j);
+    }
     return scene_save::json_text(doc, origin);
 }
 
