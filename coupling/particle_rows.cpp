@@ -30,8 +30,9 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
         const SoftBodyId sid = soft_.id_of_slot(s);
         const Real r = b.def.thickness;
         particle_of_.assign(b.p.size(), -1);
-        std::uint32_t last = kNoOwner;
+        std::uint32_t last = kNoOwner, now_slot = kNoOwner;
         bool coupled = false;
+        Transform back;  // maps the collider's predicted pose to its current one
         for (std::size_t k = 0; k < col->plane_count(); ++k) {
             const ParticleCollision::PlaneView pl = col->plane(k);
             const Collider& c = colliders[pl.collider];
@@ -50,12 +51,22 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
             const Vec3 v = (b.p.x_next[i] - b.p.x[i]) * inv_h;
             Row row;
             row.rigid = c.owner;
-            row.n = pl.normal;
+            // The plane was found at the body's predicted end-of-step pose; the rows start from now, and
+            // the body's velocity may have changed since (gravity, the mass shares' impulses). Moved
+            // back rigidly to the current pose, the separation now is exact whatever the velocities.
+            if (c.owner != now_slot) {
+                now_slot = c.owner;
+                back = sys.slot_transform(c.owner) * c.xf.inverse();
+            }
+            row.n = back.q * pl.normal;
             tangent_basis(row.n, row.t1, row.t2);
-            row.point = pl.point;
-            row.arm = pl.point - c.com;  // both at the predicted end-of-step pose
-            const Vec3 vb = st.v[c.owner] + st.w[c.owner].cross(row.arm);
-            row.gap = gap_end - h * row.n.dot(v - vb);  // separation now
+            row.point = back.apply(pl.point);
+            // The body is pushed along the normal through the particle where both are now (not at the
+            // surface point under its predicted end-of-step position): the two impulses then share one
+            // line of action at the configuration the positions are integrated from, and angular momentum
+            // is exchanged exactly. Along n the velocity there equals the surface point's.
+            row.arm = b.p.x[i] - st.x[c.owner];
+            row.gap = row.n.dot(b.p.x[i] - row.point) - r;  // separation now
             row.mu = std::sqrt(std::max(Real(0), b.def.friction * c.friction));  // as the contact pass mixes them
             if (particle_of_[i] < 0) {
                 particle_of_[i] = std::int32_t(particles_.size());
@@ -76,9 +87,15 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
 void ParticleRows::prepare(RigidSystem& sys, const RowStep& step) {
     step_ = step;
     h_ = step.h * Real(step.substeps);
+    const RigidSystem::State& st = sys.state();
+    for (Push& q : pushes_) {
+        q.dv = st.inv_mass[q.rigid] * q.j;
+        q.dw = st.inv_inertia_world[q.rigid] * q.arm.cross(q.j);
+    }
+    push_parts_left_ = pushes_.empty() ? 0 : std::max(1, step.substeps);
+    push_pending_ = true;
     build(sys, h_);
     if (rows_.empty()) return;
-    const RigidSystem::State& st = sys.state();
     for (Row& r : rows_) {
         const Particle& p = particles_[r.particle];
         r.inv_mb = st.inv_mass[r.rigid];
@@ -121,7 +138,20 @@ void ParticleRows::warm_start(const RigidSystem&, const BodyVelocities& vel) {
     }
 }
 
-void ParticleRows::solve(const RigidSystem&, const BodyVelocities& vel, bool use_bias) { solve_rows(vel, use_bias); }
+void ParticleRows::solve(const RigidSystem&, const BodyVelocities& vel, bool use_bias) {
+    if (push_pending_ && push_parts_left_ > 0) apply_pushes(vel);
+    solve_rows(vel, use_bias);
+}
+
+void ParticleRows::apply_pushes(const BodyVelocities& vel) {
+    const Real share = Real(1) / Real(std::max(1, step_.substeps));
+    for (const Push& q : pushes_) {
+        vel.set_linear(q.rigid, vel.linear(q.rigid) + share * q.dv);
+        vel.set_angular(q.rigid, vel.angular(q.rigid) + share * q.dw);
+    }
+    --push_parts_left_;
+    push_pending_ = false;
+}
 
 void ParticleRows::solve_rows(const BodyVelocities& vel, bool use_bias) {
     if (rows_.empty()) return;
@@ -178,6 +208,7 @@ void ParticleRows::solve_rows(const BodyVelocities& vel, bool use_bias) {
 }
 
 void ParticleRows::positions_advanced(const RigidSystem&, const BodyVelocities& vel, Real h) {
+    push_pending_ = true;
     // The bodies moved by h: each row's separation follows the relative normal motion (linearised, as
     // Box2D v3 tracks its contacts' separations between sub-steps).
     for (Row& r : rows_) {
@@ -213,7 +244,14 @@ void ParticleRows::exchange_pass(RigidSystem& sys) {
     }
 }
 
-void ParticleRows::finish(RigidSystem&, Real) {
+void ParticleRows::finish(RigidSystem& sys, Real) {
+    // Shares a solver did not hand out (it ran fewer passes than sub-steps) go to the bodies now.
+    if (push_parts_left_ > 0) {
+        RigidSystem::State& st = sys.state();
+        const BodyVelocities vel = BodyVelocities::of_arrays(st.v, st.w);
+        while (push_parts_left_ > 0) apply_pushes(vel);
+    }
+    pushes_.clear();
     kept_.clear();
     for (Particle& p : particles_) {
         // What the rigid solver's last passes (the soft step's relax) did after the exchange.

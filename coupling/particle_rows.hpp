@@ -62,8 +62,18 @@ public:
     void exchange_pass(RigidSystem& sys);
     bool empty() const { return rows_.empty(); }
     std::size_t row_count() const { return rows_.size(); }
+    /// An impulse j (N s) on rigid body `rigid` at `arm` from its centre of mass, given to the body inside
+    /// the next rigid solve: spread evenly over its sub-steps, as gravity is (the soft step adds gravity
+    /// per sub-step; given all at once, a box resting on a block hopped g h^2 / 2 every step).
+    void queue_push(std::uint32_t rigid, const Vec3& j, const Vec3& arm) { pushes_.push_back({rigid, j, arm}); }
     /// Appends what every row did to its rigid body this step (after finish()).
     void report(std::vector<CouplingImpulse>& out) const;
+    /// Calls f(soft slot, particle, rigid slot, normal) for every row that pushed this step.
+    template <class F>
+    void for_each_pushing(F&& f) const {
+        for (const Row& r : rows_)
+            if (r.total.dot(r.n) > 0) f(particles_[r.particle].soft, particles_[r.particle].index, r.rigid, r.n);
+    }
 
 private:
     struct Particle {
@@ -87,6 +97,8 @@ private:
         Vec3 total = Vec3::Zero();   ///< impulse given to the particle over the step (N s)
     };
     void build(RigidSystem& sys, Real h);
+    /// Gives the queued pushes' next share to the bodies (once per sub-step).
+    void apply_pushes(const BodyVelocities& vel);
     void apply(Row& r, Particle& p, const BodyVelocities& vel, const Vec3& impulse) const;
     void solve_rows(const BodyVelocities& vel, bool use_bias);
     static std::uint64_t key(const Particle& p, std::uint32_t rigid) {
@@ -109,6 +121,14 @@ private:
         bool operator<(const Kept& o) const { return key < o.key; }
     };
     std::vector<Kept> kept_;
+    struct Push {
+        std::uint32_t rigid;
+        Vec3 j, arm;
+        Vec3 dv = Vec3::Zero(), dw = Vec3::Zero();  ///< the whole push as velocity changes (prepare)
+    };
+    std::vector<Push> pushes_;
+    int push_parts_left_ = 0;   ///< sub-steps still to take a share
+    bool push_pending_ = false; ///< a new sub-step began since the last share
 };
 
 }  // namespace sinew

@@ -39,28 +39,135 @@ Vec3 total_momentum(const World& w) {
 }  // namespace
 
 namespace {
-void check_momentum_after_impact(const char* method, Real tolerance) {
-    auto w = build_world(parse_scene_string(thrown_cloth_scene("two-way", method), "thrown-cloth"));
+
+// Linear momentum before and after 60 steps, the cloth thrown at the box under two-way coupling with
+// the given rigid solver; returns the relative change.
+Real momentum_change(const char* method, RigidSolverKind solver, Real& box_speed) {
+    SceneDesc d = parse_scene_string(thrown_cloth_scene("two-way", method), "thrown-cloth");
+    d.settings.rigid.solver = solver;
+    auto w = build_world(d);
     const Vec3 p0 = total_momentum(*w);  // 0.5 kg at 3 m/s: 1.5 N s along -z
     for (int s = 0; s < 60; ++s) w->step();
-    const BodyId box = w->rigid().bodies()[0];
-    CHECK(w->rigid().linear_velocity(box).z() < Real(-0.2));  // struck: it took a good share
-    CHECK((total_momentum(*w) - p0).norm() <= tolerance * p0.norm());
+    box_speed = -w->rigid().linear_velocity(w->rigid().bodies()[0]).z();
+    return (total_momentum(*w) - p0).norm() / p0.norm();
 }
+
 }  // namespace
 
-TEST_CASE("two-way coupling conserves linear momentum when a Verlet cloth hits a free box", "[coupling]") {
-    // Rows and sent-back contact impulses are equal and opposite; a Verlet particle's contact pushes are
-    // counted as impulses m dx / h and become its velocity through the position difference. Measured
-    // 2.4e-4 of the 1.5 N s in float; 1e-3 leaves room for rounding over ~10^4 row updates per step.
-    check_momentum_after_impact("verlet", Real(1e-3));
+TEST_CASE("two-way coupling conserves linear momentum when a cloth hits a free box", "[coupling]") {
+    // Every impulse the layer exchanges is applied equally and oppositely (rows, the implicit solve's
+    // mass shares, the soft contact pass's impulses sent back), and implicit Euler keeps the momentum of
+    // an unconverged solve (conserve_momentum), so only rounding is left: measured at most 6e-5 in float
+    // over the methods and solvers; the issue's bounds are 1e-4 (float) and 1e-6 (double).
+    const Real tol = sizeof(Real) == 4 ? Real(1e-4) : Real(1e-6);
+    for (const char* method : {"implicit", "verlet", "fast-ms"})
+        for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,
+                                       RigidSolverKind::Newton}) {
+            INFO(method << " under " << rigid_solver_name(solver));
+            Real box_speed = 0;
+            CHECK(momentum_change(method, solver, box_speed) <= tol);
+            CHECK(box_speed > Real(0.2));  // struck: the box took a good share of the cloth's momentum
+        }
 }
 
-// Open (issue 15): the implicit solve's mass shares are exact only when CG converges; at the default
-// cap of 10 iterations the internal forces leave a net momentum (measured 5.8% of the 1.5 N s; 0.58%
-// at 200 iterations and tolerance 1e-6). Kept as the requirement, marked as failing until fixed.
-TEST_CASE("two-way coupling conserves linear momentum when an implicit cloth hits a free box", "[coupling][!shouldfail]") {
-    check_momentum_after_impact("implicit", Real(1e-3));
+TEST_CASE("two-way coupling: unlinked particles striking a box off centre exchange angular momentum", "[coupling]") {
+    // 25 free 20 g particles at 3 m/s strike a 2 kg box off its centre, frictionless, no gravity. Normal
+    // impulses act on the normal through each particle on both sides, so they carry no net moment;
+    // what is left comes from the soft contact pass moving positions without velocity (its projection
+    // out of the box), measured 2.7e-4 (soft step) to 1.3e-3 (the others) of the 0.15 N m s.
+    for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse}) {
+        WorldSettings ws;
+        ws.rigid.gravity = Vec3::Zero();
+        ws.rigid.sleeping = false;
+        ws.rigid.solver = solver;
+        World w(ws);
+        BodyDef bd;
+        bd.shape = make_box(Vec3(Real(0.3), Real(0.3), Real(0.3)));
+        bd.mass = 2;
+        bd.pose.p = Vec3(Real(0.1), Real(0.05), 0);
+        bd.material.friction = 0;
+        const BodyId box = w.rigid().create_body(bd);
+        SoftBodyDef sd;
+        sd.method = SoftMethod::ImplicitEuler;
+        sd.friction = 0;
+        sd.thickness = Real(0.02);
+        for (int i = 0; i < 5; ++i)
+            for (int j = 0; j < 5; ++j) {
+                sd.positions.push_back(Vec3(Real(-0.3 + 0.15 * i), Real(-0.3 + 0.15 * j), Real(0.6)));
+                sd.masses.push_back(Real(0.02));
+            }
+        sd.initial_velocity = Vec3(Real(0.5), 0, -3);
+        w.soft().create_body(sd);
+        CouplingSettings cs;
+        cs.strategy = CouplingStrategy::TwoWay;
+        w.set_coupling(cs);
+        const Real inertia = Real(2 * 0.36 / 6);  // cube of side 0.6: m a^2 / 6, isotropic
+        const auto momenta = [&](Vec3& p, Vec3& l) {
+            p = w.rigid().mass(box) * w.rigid().linear_velocity(box);
+            l = inertia * w.rigid().angular_velocity(box) + w.rigid().state().x[box.index].cross(p);
+            const Particles& q = w.soft().body(w.soft().bodies()[0]).p;
+            for (std::size_t i = 0; i < q.size(); ++i) {
+                p += q.mass[i] * q.v[i];
+                l += q.x[i].cross(q.mass[i] * q.v[i]);
+            }
+        };
+        Vec3 p0, l0, p1, l1;
+        momenta(p0, l0);
+        for (int s = 0; s < 60; ++s) w.step();
+        momenta(p1, l1);
+        INFO(rigid_solver_name(solver));
+        CHECK(w.rigid().angular_velocity(box).norm() > Real(0.1));  // off centre: the box spins
+        CHECK((p1 - p0).norm() <= Real(1e-4) * p0.norm());
+        CHECK((l1 - l0).norm() <= Real(1e-2) * l0.norm());
+    }
+}
+
+TEST_CASE("box-on-soft-block: the FEM block carries the box at the same depth under every rigid solver", "[coupling]") {
+    // Statics: a 20 kg box on a clamped 1 x 0.4 x 1 m block (E = 2e5). At rest the impulses the block
+    // gives the box over a step are its weight times h, and the block's top under the box sinks the
+    // same under every rigid solver and at a quarter of the step (measured 2.44 mm at h = 1/60 with split
+    // impulses, Baumgarte and Newton, 2.44 mm with the soft step, 2.44 mm at h/4); one-way lets the box
+    // fall through. 2% on the depth, 1% on the force (the residual motion of a settling body).
+    const SceneDesc scene = parse_scene_file(scene_path("box-on-soft-block.json"));
+    const auto settle = [&](RigidSolverKind solver, CouplingStrategy strategy, int divide, Real& sink, Real& force) {
+        SceneDesc d = scene;
+        d.settings.rigid.solver = solver;
+        d.settings.rigid.sleeping = false;
+        d.settings.time_step /= Real(divide);
+        d.coupling.settings.strategy = strategy;
+        std::vector<BodyId> ids;
+        auto w = build_world(d, &ids);
+        const int steps = int(Real(1.5) / d.settings.time_step + Real(0.5));
+        Vec3 impulse = Vec3::Zero();
+        const int averaged = 15 * divide;  // the last quarter second
+        for (int k = 0; k < steps; ++k) {
+            w->step();
+            if (k >= steps - averaged)
+                for (const CouplingImpulse& c : w->coupling().impulses())
+                    if (c.rigid == ids[1].index) impulse += c.impulse;
+        }
+        force = impulse.y() / (Real(averaged) * d.settings.time_step);
+        // The block's top nodes under the box (x, z = +-0.1, y = 0.4 at rest).
+        Real top = 1;
+        for (const Vec3& x : w->soft().body(w->soft().bodies()[0]).p.x)
+            if (std::abs(x.x()) < Real(0.15) && std::abs(x.z()) < Real(0.15) && x.y() > Real(0.3)) top = std::min(top, x.y());
+        sink = Real(0.4) - top;
+        return w->rigid().transform(ids[1]).p.y();
+    };
+    Real reference_sink = 0, force = 0;
+    settle(RigidSolverKind::SplitImpulse, CouplingStrategy::TwoWay, 4, reference_sink, force);
+    REQUIRE(reference_sink > Real(0.001));
+    const Real weight = 20 * Real(9.81);
+    for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,
+                                   RigidSolverKind::Newton}) {
+        INFO(rigid_solver_name(solver));
+        Real sink = 0;
+        settle(solver, CouplingStrategy::TwoWay, 1, sink, force);
+        CHECK(sink == Approx(reference_sink).epsilon(0.02));
+        CHECK(force == Approx(weight).epsilon(0.01));
+    }
+    Real sink = 0;
+    CHECK(settle(RigidSolverKind::SoftStep, CouplingStrategy::OneWay, 1, sink, force) < Real(0.25));  // on the ground
 }
 
 TEST_CASE("one-way coupling leaves the rigid body's path unchanged; two-way does not", "[coupling]") {
