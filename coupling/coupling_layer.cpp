@@ -20,7 +20,7 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
                                   [this](const StepContext& ctx) { begin_step(ctx.h); }, "coupling: held contacts");
     const int rigid_index = pipeline.find_system(rigid.name());
     hooks_[4] = pipeline.add_hook(rigid_index, Stage::SolveVelocities, HookWhen::Before,
-                                  [this](const StepContext&) { send_back_held_impulses(); }, "coupling: held -> rigid");
+                                  [this](const StepContext&) { send_back_share_impulses(); }, "coupling: held -> rigid");
 }
 
 CouplingLayer::~CouplingLayer() {
@@ -62,78 +62,109 @@ void CouplingLayer::begin_step(Real h) {
         for (const CouplingPair& p : settings_.pairs)
             if (p.soft == id) two_way = two_way || p.strategy == CouplingStrategy::TwoWay;
         b.hold_contacts = two_way;
-        if (two_way && b.awake) hold_at_rigid_speed(b, id, h);
-        else b.contact_mass.clear();
+        if (two_way && b.awake) hold_at_rigid_speed(b, id, s, h);
+        else b.contact_share.clear();
     }
     sent_back_.clear();
 }
 
-void CouplingLayer::hold_at_rigid_speed(SoftBody& b, SoftBodyId id, Real h) {
-    // Each particle the last contact pass found on a dynamic rigid body carries an equal share of that
-    // body's mass through this step's implicit solve (soft/implicit_euler.cpp, CoupledRow), starting at
-    // the body's surface speed now (gravity over the step included if the solver adds it later). The
-    // body then takes what the shares took (send_back_held_impulses): its inertia meets the springs
-    // inside the implicit solve. A prescribed speed with the reaction sent explicitly (Baraff & Witkin's
-    // filter) was tried first: it made energy (a 1 kg ball bounced 12% above its drop height off a
-    // 0.5 kg cloth) and diverged once the cloth's damping passed 2 M / (h N) (20 N s/m here).
-    b.contact_mass.clear();
+void CouplingLayer::hold_at_rigid_speed(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
+    // Each particle the last contact pass (or the rows) found on a dynamic rigid body carries a share of
+    // that body's inertia through this step's implicit solve (soft/implicit_euler.cpp, CoupledRow),
+    // starting at the body's velocity there (gravity over the step included if the solver adds it
+    // later); the body then takes what the shares gave the particles (send_back_share_impulses). The
+    // share, split evenly over the particles touching the body: along the normal its mass M (together
+    // the shares move as the body translates, so a resting body's weight reaches the soft body in full:
+    // the box on the FEM block sinks 2.44 mm at h and at h/4); across it, when friction acts, the
+    // tangential part of the body's effective mass at the particle, K^-1 with K = 1/M - [r]x I^-1 [r]x
+    // (rotation included: a ball spins under it). The whole K^-1 along the normal too made the sink
+    // depend on h (3.75 mm at h, 2.60 mm at h/4): four corner shares of a box sum to less than its mass.
+    // With no friction, or where last step's share pushed outside the friction cone, the normal part only.
+    // Tried first and rejected:
+    //  - a prescribed speed with the reaction sent explicitly (Baraff-Witkin's filter): it made energy
+    //    (a 1 kg ball bounced 12% above its drop height off a 0.5 kg cloth) and diverged once the cloth's
+    //    damping passed about 2 M / (h N) (20 N s/m here);
+    //  - normal shares with friction left to the rows and the contact pass: the ball resting in the
+    //    cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its small
+    //    rotational inertia a step late.
+    b.contact_share.clear();
     if (b.contact_owner.size() != b.p.size() || b.contact_normal.size() != b.p.size()) return;
     const RigidSystem::State& st = rigid_.state();
     const bool gravity_pending = rigid_.settings().solver == RigidSolverKind::SoftStep;
     share_count_.resize(rigid_.slot_count());
+    if (slip_.size() <= slot) slip_.resize(slot + 1);
+    std::vector<std::uint8_t>& slip = slip_[slot];
+    if (slip.size() != b.p.size()) slip.assign(b.p.size(), 0);
     const auto eligible = [&](std::uint32_t i) {
         const std::uint32_t o = b.contact_owner[i];
         if (b.p.inv_mass[i] == 0 || b.contact_normal[i].isZero() || o >= rigid_.slot_count() || !rigid_.slot_alive(o))
             return false;
-        if (rigid_.slot_type(o) != BodyType::Dynamic || !rigid_.awake(rigid_.id_of_slot(o))) return false;
+        if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) return false;
         return coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)) == CouplingStrategy::TwoWay;
     };
+    bool any_share = false;
     for (std::uint32_t i = 0; i < b.p.size(); ++i)
         if (eligible(i)) share_count_[b.contact_owner[i]] = 0;
-    bool any_share = false;
     for (std::uint32_t i = 0; i < b.p.size(); ++i)
         if (eligible(i)) {
             ++share_count_[b.contact_owner[i]];
             any_share = true;
         }
     if (!any_share) return;
-    b.contact_mass.assign(b.p.size(), Real(0));
+    b.contact_share.assign(b.p.size(), Mat3::Zero());
+    if (b.contact_surface_v.size() != b.p.size()) b.contact_surface_v.assign(b.p.size(), Vec3::Zero());
     for (std::uint32_t i = 0; i < b.p.size(); ++i) {
         if (!eligible(i)) continue;
         const std::uint32_t o = b.contact_owner[i];
         const BodyId rid = rigid_.id_of_slot(o);
-        Vec3 v = st.v[o] + st.w[o].cross(b.p.x[i] - st.x[o]);
+        const Vec3 r = b.p.x[i] - st.x[o];
+        Vec3 v = st.v[o] + st.w[o].cross(r);
         if (gravity_pending) v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
-        b.contact_speed[i] = b.contact_normal[i].dot(v);
-        b.contact_mass[i] = rigid_.mass(rid) / Real(share_count_[o]);
+        const Vec3& n = b.contact_normal[i];
+        b.contact_speed[i] = n.dot(v);
+        b.contact_surface_v[i] = v;
+        const Real split = 1 / Real(share_count_[o]);
+        const Mat3 nn = n * n.transpose();
+        b.contact_share[i] = (split * rigid_.mass(rid)) * nn;
+        const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
+        if (mu > 0 && !slip[i]) {
+            const Mat3 rx = skew(r);
+            const Mat3 k = st.inv_mass[o] * Mat3::Identity() - rx * st.inv_inertia_world[o] * rx;
+            const Mat3 t = Mat3::Identity() - nn;
+            b.contact_share[i] += split * (t * k.inverse() * t);
+        }
     }
 }
 
-void CouplingLayer::send_back_held_impulses() {
+void CouplingLayer::send_back_share_impulses() {
     if (!any(CouplingStrategy::TwoWay)) return;
     const RigidSystem::State& st = rigid_.state();
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
         const SoftBody& b = soft_.slot_body(s);
-        if (!b.stepping || b.contact_held.size() != b.p.size() || b.contact_owner.size() != b.p.size()) continue;
-        const SoftBodyId sid = soft_.id_of_slot(s);
-        for (std::uint32_t i = 0; i < b.p.size(); ++i) {
-            const Real held = b.contact_held[i];
+        const std::size_t n = b.p.size();
+        if (!b.stepping || b.contact_share.size() != n || b.contact_share_impulse.size() != n) continue;
+        std::vector<std::uint8_t>& slip = slip_[s];
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (b.contact_share[i].isZero()) continue;
+            const Vec3& jp = b.contact_share_impulse[i];  // what the share gave the particle
             const std::uint32_t o = b.contact_owner[i];
-            const bool share = b.contact_mass.size() == b.p.size() && b.contact_mass[i] > 0;
-            if ((share ? held == 0 : held <= 0) || o >= rigid_.slot_count() || !rigid_.slot_alive(o)) continue;
-            if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) continue;
-            if (coupling_strategy_of(settings_, sid, rigid_.id_of_slot(o)) != CouplingStrategy::TwoWay) continue;
-            // Along the normal through the particle: the same torque as at the surface point under it.
-            // Given inside the rigid solve, a share per sub-step (ParticleRows::queue_push).
-            const Vec3 j = -held * b.contact_normal[i];
+            const Vec3& nrm = b.contact_normal[i];
+            // Coulomb, a step late: a share that pushed outside the cone acts along the normal next step.
+            const Real jn = jp.dot(nrm);
+            const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
+            slip[i] = (jp - jn * nrm).norm() > mu * std::max(jn, Real(0)) ? 1 : 0;
+            if (jp.isZero()) continue;
+            // Along the line through the particle; given inside the rigid solve, a share per sub-step
+            // (ParticleRows::queue_push).
+            const Vec3 j = -jp;
             rows_.queue_push(o, j, b.p.x[i] - st.x[o]);
             CouplingImpulse out;
             out.rigid = o;
             out.soft = s;
             out.particle = i;
-            out.point = b.p.x[i] - b.def.thickness * b.contact_normal[i];
-            out.normal = b.contact_normal[i];
+            out.point = b.p.x[i] - b.def.thickness * nrm;
+            out.normal = nrm;
             out.impulse = j;
             out.held = true;
             sent_back_.push_back(out);

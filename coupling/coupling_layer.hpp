@@ -6,10 +6,11 @@
 // pipeline; seed 001 Figure 9):
 //   two-way  the particle rows (coupling/particle_rows.hpp) are a row source of the rigid solver, built
 //            from the soft system's collision planes and solved in every rigid iteration and sub-step.
-//            An implicit Euler body holds its contact particles' normal velocity in its own solve (Baraff &
-//            Witkin's filter, soft/implicit_euler.cpp): the impulse that holding took is sent to the
-//            rigid body before the rigid solve, so the body feels the cloth's springs, not only the
-//            particles' inertia (which alone let a 1 kg ball fall through a 0.5 kg cloth).
+//            An implicit Euler body's contact particles carry shares of the rigid bodies they touch
+//            through its own solve (soft/implicit_euler.cpp, CoupledRow): what the shares gave the
+//            particles is taken from the bodies inside the rigid solve, so a body feels the springs
+//            implicitly, not only the particles' inertia (which alone let a 1 kg ball sink through a
+//            0.5 kg cloth).
 //            Before soft SolveVelocities the rows' velocity changes go into the soft bodies' predictions;
 //            after it (every velocity solved, no position integrated) the impulses the soft contact pass
 //            still had to give those particles go back to the rigid bodies, and the rows are solved again
@@ -54,10 +55,10 @@ public:
 
 private:
     void begin_step(Real h);
-    /// Two-way: the impulses implicit Euler's contact constraints gave particles held against dynamic
-    /// rigid bodies (SoftBody::contact_held), sent back before the rigid solve.
-    void send_back_held_impulses();
-    void hold_at_rigid_speed(SoftBody& b, SoftBodyId id, Real h);
+    /// Two-way: the impulses the rigid bodies' shares gave particles in implicit Euler's solve
+    /// (SoftBody::contact_share_impulse), sent back inside the rigid solve.
+    void send_back_share_impulses();
+    void hold_at_rigid_speed(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
     void before_soft_solve(Real h);
     void after_soft_solve();
     void after_step();
@@ -75,6 +76,8 @@ private:
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
+    /// Per soft slot, per particle: last step's share pushed outside the friction cone (normal share next).
+    std::vector<std::vector<std::uint8_t>> slip_;
     int hooks_[5] = {0, 0, 0, 0, 0};
 };
 

@@ -77,7 +77,7 @@ void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::v
     for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
     for (const ForceModel* model : force_models())
         if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
-    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) q[r.particle] += (r.mass * r.normal.dot(u[r.particle])) * r.normal;
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) q[r.particle] += r.share * u[r.particle];
     for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
@@ -97,7 +97,7 @@ void conserve_momentum(const SoftBody& b, ImplicitEulerCache& c) {
         net += c.cg.q[i] - c.rhs[i];
         mass.diagonal().array() += c.mass[i];
     }
-    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) mass += r.mass * r.normal * r.normal.transpose();
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) mass += r.share;
     const Vec3 delta = -mass.inverse() * net;
     for (Vec3& v : c.dv) v += delta;
 }
@@ -173,22 +173,21 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // tet (674 without). The soft system records contacts for FEM bodies only (SoftSystem::record_contacts).
     c.contact_rows.clear();
     c.coupled_rows.clear();
-    const bool coupled = b.contact_mass.size() == n;
+    const bool coupled = b.contact_share.size() == n && b.contact_surface_v.size() == n;
     if (b.contact_normal.size() == n)
         for (std::uint32_t i = 0; i < n; ++i) {
             const Vec3& nrm = b.contact_normal[i];
             if (p.inv_mass[i] == 0 || nrm.isZero()) continue;
             const Real approach = b.contact_speed[i] - nrm.dot(p.v[i]);  // > 0: moving into the collider
             if (approach < Real(-1e-3) || c.contact_released[i]) continue;  // leaving, or pulled last step
-            if (coupled && b.contact_mass[i] > 0) {
-                // The body's share joins the particle (an inelastic merge along n), then both take the
-                // forces: mass n nᵀ on the diagonal, its momentum relative to the particle on the right.
-                const Real a = b.contact_mass[i];
-                c.coupled_rows.push_back({i, nrm, a, b.contact_speed[i]});
-                c.rhs[i] += (a * approach) * nrm;
+            if (coupled && !b.contact_share[i].isZero()) {
+                // The body's share joins the particle (an inelastic merge), then both take the forces: the
+                // share on the diagonal, its momentum relative to the particle on the right.
+                const Mat3& a = b.contact_share[i];
+                c.coupled_rows.push_back({i, a, b.contact_surface_v[i]});
+                c.rhs[i] += a * (b.contact_surface_v[i] - p.v[i]);
                 Real* B = c.cg.block(i);
-                B[0] += a * nrm.x() * nrm.x(), B[1] += a * nrm.y() * nrm.y(), B[2] += a * nrm.z() * nrm.z();
-                B[3] += a * nrm.x() * nrm.y(), B[4] += a * nrm.x() * nrm.z(), B[5] += a * nrm.y() * nrm.z();
+                B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
                 continue;
             }
             c.contact_rows.push_back({i, nrm, std::max(approach, Real(0)) * nrm, nrm.dot(c.rhs[i])});
@@ -231,31 +230,31 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // change is the contact pass's friction budget (SoftBody::contact_dvn).
     std::fill(c.contact_released.begin(), c.contact_released.end(), std::uint8_t(0));
     if (b.contact_dvn.size() != n) b.contact_dvn.assign(n, Real(0));
-    if (b.contact_held.size() != n) b.contact_held.assign(n, Real(0));
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
-    std::fill(b.contact_held.begin(), b.contact_held.end(), Real(0));
+    std::fill(b.contact_share_impulse.begin(), b.contact_share_impulse.end(), Vec3::Zero());
     if (!c.contact_rows.empty()) {
         system_product(b, c, c.dv, c.cg.q);
         for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
             const Real impulse = r.normal.dot(c.cg.q[r.particle]) - r.rhs_normal;
             if (impulse < 0)
                 c.contact_released[r.particle] = 1;
-            else {
+            else
                 b.contact_dvn[r.particle] = impulse / c.mass[r.particle];
-                b.contact_held[r.particle] = impulse;
-            }
         }
     }
 
-    // The coupled shares: each ends at the particle's normal velocity; the impulse it gave the particle,
-    // a (speed - n · v'), is what the coupling layer takes from the rigid body (either sign: the solve
-    // included it). One that pulled is released for the next step, as the constraints above are.
+    // The coupled shares: each ends at the particle's velocity; the impulse it gave the particle,
+    // share (surface_v - v'), is what the coupling layer takes from the rigid body (whatever its
+    // direction: the solve included it). One that pulled along the normal is released for the next step,
+    // as the constraints above are.
     if (!c.coupled_rows.empty()) {
+        if (b.contact_share_impulse.size() != n) b.contact_share_impulse.assign(n, Vec3::Zero());
         for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-            const Real held = r.mass * (r.speed - r.normal.dot(p.v[r.particle] + c.dv[r.particle]));
-            b.contact_held[r.particle] = held;
-            if (held < 0) c.contact_released[r.particle] = 1;
-            else b.contact_dvn[r.particle] = held / c.mass[r.particle];  // the contact pass's friction budget
+            const Vec3 j = r.share * (r.surface_v - p.v[r.particle] - c.dv[r.particle]);
+            b.contact_share_impulse[r.particle] = j;
+            const Real jn = j.dot(b.contact_normal[r.particle]);
+            if (jn < 0) c.contact_released[r.particle] = 1;
+            else b.contact_dvn[r.particle] = jn / c.mass[r.particle];  // the contact pass's friction budget
         }
     }
 

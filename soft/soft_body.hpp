@@ -155,19 +155,20 @@ struct SoftBody {
     /// step: the contact pass adds it to its Coulomb friction budget (mu times the normal change), since
     /// the solve, not the pass, stopped the particle. Empty: none.
     std::vector<Real> contact_dvn;
-    /// Per particle, with contact_normal: the owner of the collider it touched (Collider::owner) and the
-    /// impulse (N s, >= 0, along contact_normal) the solve's contact constraint gave it this step. A
-    /// two-way coupling layer sends that impulse back to the owner. Empty: none.
+    /// Per particle, with contact_normal: the owner of the collider it touched (Collider::owner), for a
+    /// two-way coupling layer's mass shares (contact_share below).
     std::vector<std::uint32_t> contact_owner;
-    std::vector<Real> contact_held;
     /// Implicit Euler holds this body's contacts in its solve (recorded by the contact pass). Always for
-    /// FEM bodies; for mass-spring bodies when a two-way coupling layer asks (it needs the held impulse).
+    /// FEM bodies; for mass-spring bodies when a two-way coupling layer asks (its mass shares ride on the recorded contacts).
     bool hold_contacts = false;
-    /// Per particle, set by a two-way coupling layer before the step (empty or 0: none): the share (kg) of
-    /// the dynamic rigid body it touches (contact_owner) that implicit Euler moves with it along
-    /// contact_normal, starting at contact_speed; contact_held then reports the impulse that share gave
-    /// the particle, for the layer to take from the body.
-    std::vector<Real> contact_mass;
+    /// Per particle, set by a two-way coupling layer before the step (empty, or a zero matrix: none): the
+    /// share (kg, a symmetric 3x3 inertia) of the dynamic rigid body it touches (contact_owner) that
+    /// implicit Euler moves with it, starting at the body's velocity there (contact_surface_v);
+    /// contact_share_impulse then reports the impulse that share gave the particle, for the layer to take
+    /// from the body.
+    std::vector<Mat3> contact_share;
+    std::vector<Vec3> contact_surface_v;
+    std::vector<Vec3> contact_share_impulse;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

@@ -43,15 +43,14 @@ struct ImplicitEulerCache {
         Real rhs_normal = 0;  ///< n · rhs before the filter (for the constraint's force after the solve)
     };
     std::vector<ContactRow> contact_rows;
-    /// Particles touching a dynamic rigid body under two-way coupling (SoftBody::contact_mass): the body's
-    /// share `mass` moves with the particle along `normal` inside the solve (A gains mass n nᵀ, the right
-    /// side the share's momentum relative to the particle), so the body's inertia meets the springs
-    /// implicitly instead of through a prescribed velocity.
+    /// Particles touching a dynamic rigid body under two-way coupling (SoftBody::contact_share): the body's
+    /// share (a 3x3 inertia at the contact point) moves with the particle inside the solve (A gains the
+    /// share, the right side the share's momentum relative to the particle), so the body's inertia meets
+    /// the springs implicitly instead of through a prescribed velocity.
     struct CoupledRow {
         std::uint32_t particle = 0;
-        Vec3 normal = Vec3::Zero();
-        Real mass = 0;   ///< kg
-        Real speed = 0;  ///< the body's surface speed along normal at the start of the step (m/s)
+        Mat3 share = Mat3::Zero();      ///< kg
+        Vec3 surface_v = Vec3::Zero();  ///< the body's velocity at the particle at the start of the step
     };
     std::vector<CoupledRow> coupled_rows;
     /// Per particle: 1 if its contact constraint pulled it towards the collider in the last solve
