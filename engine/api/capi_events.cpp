@@ -25,6 +25,8 @@ WorldEvents::WorldEvents(World& world, const HostHooks& hooks)
       end_(HostAllocator<sinew_contact_end_event>(hooks)),
       sleep_(HostAllocator<sinew_sleep_event>(hooks)),
       breaks_(HostAllocator<sinew_joint_break_event>(hooks)),
+      soft_(HostAllocator<sinew_soft_contact_event>(hooks)),
+      soft_sums_(HostAllocator<SoftSum>(hooks)),
       awake_before_(HostAllocator<std::uint8_t>(hooks)),
       generation_before_(HostAllocator<std::uint32_t>(hooks)),
       pairs_(HostAllocator<Pair>(hooks)),
@@ -49,6 +51,7 @@ void WorldEvents::clear() {
     end_.clear();
     sleep_.clear();
     breaks_.clear();
+    soft_.clear();
     dropped_ = 0;
 }
 
@@ -67,6 +70,8 @@ sinew_events WorldEvents::view() const {
     e.sleep_count = static_cast<int>(sleep_.size());
     e.joint_break = breaks_.data();
     e.joint_break_count = static_cast<int>(breaks_.size());
+    e.soft_contact = soft_.data();
+    e.soft_contact_count = static_cast<int>(soft_.size());
     e.dropped = dropped_;
     return e;
 }
@@ -100,6 +105,7 @@ void WorldEvents::after_step(std::uint64_t step) {
     gather_sleep(step);
     gather_contacts(step);
     gather_breaks(step);
+    gather_soft_contacts(step);
 }
 
 void WorldEvents::gather_sleep(std::uint64_t step) {
@@ -206,6 +212,51 @@ void WorldEvents::gather_breaks(std::uint64_t step) {
                                         std::to_string(id.generation) + "} broke in step " + std::to_string(step) +
                                         " (user_data " + std::to_string(e.user_data) + ")");
     }
+}
+
+void WorldEvents::gather_soft_contacts(std::uint64_t step) {
+    const std::size_t first = soft_.size();
+    const RigidSystem& rigid = world_.rigid();
+    const SoftSystem& soft = world_.soft();
+    soft_sums_.clear();
+    for (const CouplingImpulse& c : world_.coupling().impulses()) {
+        if (!rigid.slot_alive(c.rigid) || !soft.slot_alive(c.soft)) continue;
+        // A handful of pairs per step: a linear search of this step's events.
+        std::size_t k = 0;
+        while (k < soft_sums_.size() && !(soft_sums_[k].rigid == c.rigid && soft_sums_[k].soft == c.soft)) ++k;
+        if (k == soft_sums_.size()) {
+            try {
+                soft_sums_.push_back({c.rigid, c.soft, Vec3::Zero(), Vec3::Zero(), 0, 0});
+            } catch (const std::bad_alloc&) {
+                ++dropped_;
+                continue;
+            }
+        }
+        SoftSum& sum = soft_sums_[k];
+        const Real w = c.impulse.norm();
+        sum.impulse += c.impulse;
+        sum.weighted_point += w * c.point;
+        sum.weight += w;
+        ++sum.particles;
+    }
+    for (const SoftSum& sum : soft_sums_) {
+        sinew_soft_contact_event e{};
+        e.body = handle(sum.rigid, rigid.id_of_slot(sum.rigid).generation);
+        e.soft = {tag_, sum.soft, soft.id_of_slot(sum.soft).generation};
+        e.impulse = to_c(sum.impulse);
+        e.point = to_c(sum.weight > 0 ? Vec3(sum.weighted_point / sum.weight) : Vec3::Zero());
+        e.particles = sum.particles;
+        e.step = step;
+        try {
+            soft_.push_back(e);
+        } catch (const std::bad_alloc&) {
+            ++dropped_;
+        }
+    }
+    // In (soft slot, rigid slot) order, as documented.
+    std::sort(soft_.begin() + std::ptrdiff_t(first), soft_.end(), [](const sinew_soft_contact_event& a, const sinew_soft_contact_event& b) {
+        return a.soft.index != b.soft.index ? a.soft.index < b.soft.index : a.body.index < b.body.index;
+    });
 }
 
 }  // namespace sinew::capi

@@ -9,6 +9,8 @@
 //   ended. RigidSystem::contacts() is sorted by body pair, so building the set is one linear pass.
 // - Joint breaks: RigidSystem::broken_joints() after the step; the definition of a broken joint is gone
 //   by then, so the bodies and user data come from a table filled when joints are created.
+// - Soft contacts: the coupling layer's impulses of the step (CouplingLayer::impulses()), summed per
+//   (soft body, rigid body) pair.
 // All buffers use the world's host allocator and keep their capacity: no allocation in a steady state.
 #pragma once
 
@@ -54,6 +56,7 @@ private:
     void gather_sleep(std::uint64_t step);
     void gather_contacts(std::uint64_t step);
     void gather_breaks(std::uint64_t step);
+    void gather_soft_contacts(std::uint64_t step);
     sinew_body_id handle(std::uint32_t slot, std::uint32_t generation) const { return {tag_, slot, generation}; }
 
     World& world_;
@@ -65,6 +68,14 @@ private:
     HostVector<sinew_contact_end_event> end_;
     HostVector<sinew_sleep_event> sleep_;
     HostVector<sinew_joint_break_event> breaks_;
+    HostVector<sinew_soft_contact_event> soft_;
+    struct SoftSum {
+        std::uint32_t rigid, soft;
+        Vec3 impulse, weighted_point;
+        Real weight;
+        int particles;
+    };
+    HostVector<SoftSum> soft_sums_;  ///< scratch of gather_soft_contacts
     HostVector<std::uint8_t> awake_before_;         ///< per rigid slot, 2 = not a live dynamic body
     HostVector<std::uint32_t> generation_before_;  ///< per rigid slot
     HostVector<Pair> pairs_, new_pairs_;

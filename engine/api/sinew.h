@@ -387,6 +387,18 @@ typedef struct sinew_joint_break_event {
     uint64_t step;
 } sinew_joint_break_event;
 
+/* A soft body pushed a rigid body during a step (two-way or hybrid coupling): one event per (soft body,
+ * rigid body) pair per step, the impulses of all its particles summed. */
+typedef struct sinew_soft_contact_event {
+    sinew_body_id body;         /* the rigid body */
+    sinew_soft_body_id soft;    /* the soft body */
+    sinew_vec3 impulse;         /* N s, received by the rigid body over the step: at rest, its weight times h
+                                   (minus what other contacts carry) */
+    sinew_vec3 point;           /* m, world: the contact points averaged, weighted by their impulses */
+    int particles;              /* how many particles pushed */
+    uint64_t step;
+} sinew_soft_contact_event;
+
 typedef struct sinew_events {
     const sinew_contact_begin_event* contact_begin; /* in (body_a slot, body_b slot) order per step */
     int contact_begin_count;
@@ -396,6 +408,8 @@ typedef struct sinew_events {
     int sleep_count;
     const sinew_joint_break_event* joint_break;     /* in the order the solver broke them */
     int joint_break_count;
+    const sinew_soft_contact_event* soft_contact;   /* in (soft body slot, rigid body slot) order per step */
+    int soft_contact_count;
     int dropped;  /* events lost because the allocator returned NULL (0 normally) */
 } sinew_events;
 
@@ -426,6 +440,21 @@ SINEW_API sinew_status sinew_world_overlap_shape(sinew_world_id world, const sin
 /** Changes the rigid solver and its velocity iterations (1..1000) from the next step. */
 SINEW_API sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, int velocity_iterations);
 SINEW_API sinew_status sinew_world_set_gravity(sinew_world_id world, sinew_vec3 gravity);
+
+/* How rigid and soft bodies act on each other (docs/coupling.md). */
+typedef enum sinew_coupling {
+    SINEW_COUPLING_ONE_WAY = 0, /* rigid bodies push soft ones, nothing comes back (default) */
+    SINEW_COUPLING_TWO_WAY = 1, /* both ways: particles in the rigid solve, rigid inertia in implicit soft solves */
+    SINEW_COUPLING_HYBRID = 2   /* one-way contacts, `gain` times their impulses sent back to the rigid body */
+} sinew_coupling;
+/** The world's coupling strategy from the next step, for every pair no override names; `gain` in [0, 1]
+ *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */
+SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain);
+SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
+/** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:
+ *  every rigid body), from the next step; a later call for the same pair replaces it. */
+SINEW_API sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
+                                                     sinew_coupling strategy);
 /** Friction (>= 0) and restitution ([0, 1]) of a body, from the next step. */
 SINEW_API sinew_status sinew_body_set_material(sinew_body_id body, float friction, float restitution);
 

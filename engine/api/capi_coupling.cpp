@@ -1,0 +1,88 @@
+// The C API's coupling settings (sinew.h, "How rigid and soft bodies act on each other"): the world's
+// strategy and per-pair overrides, through World::set_coupling (coupling/coupling_layer.hpp).
+#include <string>
+
+#include "engine/api/capi_internal.hpp"
+
+using namespace sinew;
+using namespace sinew::capi;
+
+namespace {
+
+sinew_status invalid(const char* fn, const std::string& what) {
+    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
+}
+sinew_status null_arg(const char* fn, const char* name) {
+    return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": " + name + " is NULL");
+}
+
+bool strategy_of(sinew_coupling c, CouplingStrategy& out) {
+    switch (enum_value(c)) {
+        case SINEW_COUPLING_ONE_WAY: out = CouplingStrategy::OneWay; return true;
+        case SINEW_COUPLING_TWO_WAY: out = CouplingStrategy::TwoWay; return true;
+        case SINEW_COUPLING_HYBRID: out = CouplingStrategy::Hybrid; return true;
+        default: return false;
+    }
+}
+
+}  // namespace
+
+sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain) {
+    const char* fn = "sinew_world_set_coupling";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        CouplingSettings c = w->coupling().settings();
+        if (!strategy_of(strategy, c.strategy))
+            return invalid(fn, "strategy = " + std::to_string(enum_value(strategy)) + " is not a sinew_coupling");
+        c.gain = Real(gain);
+        w->set_coupling(c);  // CouplingError names a bad gain; nothing changes then
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy) {
+    const char* fn = "sinew_world_get_coupling";
+    return guarded(fn, [&] {
+        if (!strategy) return null_arg(fn, "strategy");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        *strategy = static_cast<sinew_coupling>(int(w->coupling().settings().strategy));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
+                                           sinew_coupling strategy) {
+    const char* fn = "sinew_world_set_pair_coupling";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        CouplingPair pair;
+        if (!strategy_of(strategy, pair.strategy))
+            return invalid(fn, "strategy = " + std::to_string(enum_value(strategy)) + " is not a sinew_coupling");
+        pair.soft = SoftBodyId{soft.index, soft.generation};
+        if (soft.world != pack_world(world) || !w->soft().valid(pair.soft))
+            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
+                                                  ", generation " + std::to_string(soft.generation) +
+                                                  "} is null, destroyed or not in this world");
+        if (rigid.generation != 0) {
+            World* owner = nullptr;
+            pair.rigid = find_body(rigid, fn, &owner);
+            if (pair.rigid.is_null()) return SINEW_ERROR_STALE_ID;
+            if (owner != w) return invalid(fn, "the rigid body is not in this world");
+        }
+        CouplingSettings c = w->coupling().settings();
+        // A later call for the same pair replaces the earlier one.
+        for (std::size_t k = 0; k < c.pairs.size();)
+            if (c.pairs[k].soft == pair.soft && c.pairs[k].rigid == pair.rigid)
+                c.pairs.erase(c.pairs.begin() + std::ptrdiff_t(k));
+            else
+                ++k;
+        c.pairs.push_back(pair);
+        w->set_coupling(c);
+        return SINEW_OK;
+    });
+}

@@ -1,0 +1,120 @@
+// The C API's coupling (sinew_world_set_coupling and friends) as a game would use it: a ball dropped on
+// a cloth trampoline made through the API; under two-way coupling the cloth holds it and the step's soft
+// contact events carry its weight; bad strategies, gains and handles are refused with nothing changed.
+#include <catch2/catch.hpp>
+
+#include <cstring>
+
+#include "tests/test_c_api_util.hpp"
+
+using namespace capi_test;
+
+namespace {
+
+struct Trampoline {
+    sinew_world_id world{};
+    sinew_body_id ball{};
+    sinew_soft_body_id cloth{};
+};
+
+// A 1 kg ball (r = 0.2 m) 0.3 m above a 2 m cloth of 0.5 kg (implicit springs) pinned at its corners.
+Trampoline make_trampoline() {
+    Trampoline t;
+    t.world = make_world();
+    sinew_soft_def sd = sinew_soft_def_default();
+    sd.method = SINEW_SOFT_IMPLICIT;
+    sd.total_mass = 0.5f;
+    sd.thickness = 0.02f;
+    sd.links.stretch = 4000;
+    sd.links.shear = 400;
+    sd.links.damping = 2;
+    sinew_cloth_def cd = sinew_cloth_def_default();
+    cd.nx = cd.ny = 16;
+    cd.origin = {-1, 1, -1};
+    cd.edge_u = {2, 0, 0};
+    cd.edge_v = {0, 0, 2};
+    cd.pinned_corners = SINEW_CLOTH_PIN_00 | SINEW_CLOTH_PIN_10 | SINEW_CLOTH_PIN_01 | SINEW_CLOTH_PIN_11;
+    REQUIRE(sinew_soft_create_cloth(t.world, &sd, &cd, &t.cloth) == SINEW_OK);
+    sinew_body_def bd = sinew_body_def_default();
+    bd.shape.type = SINEW_SHAPE_SPHERE;
+    bd.shape.radius = 0.2f;
+    bd.mass = 1;
+    bd.transform.p = {0, 1.5f, 0};
+    REQUIRE(sinew_body_create(t.world, &bd, &t.ball) == SINEW_OK);
+    return t;
+}
+
+}  // namespace
+
+TEST_CASE("C API: two-way coupling holds a ball on a cloth and reports its weight in soft contact events", "[capi][coupling]") {
+    Trampoline t = make_trampoline();
+    sinew_coupling c = SINEW_COUPLING_HYBRID;
+    REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_ONE_WAY);  // the default
+    REQUIRE(sinew_world_set_coupling(t.world, SINEW_COUPLING_TWO_WAY, 1) == SINEW_OK);
+    REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_TWO_WAY);
+    // 4 s: the ball lands, bounces and settles in the cloth.
+    float impulse_y = 0;
+    int steps_with_events = 0;
+    for (int s = 0; s < 240; ++s) {
+        REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
+        sinew_events e;
+        REQUIRE(sinew_world_get_events(t.world, &e) == SINEW_OK);
+        if (s < 180) continue;
+        // The last second: one event per step for the (cloth, ball) pair, whose impulses carry the weight.
+        for (int k = 0; k < e.soft_contact_count; ++k) {
+            const sinew_soft_contact_event& ev = e.soft_contact[k];
+            CHECK(ev.body.index == t.ball.index);
+            CHECK(ev.soft.index == t.cloth.index);
+            CHECK(ev.particles > 0);
+            impulse_y += ev.impulse.y;
+        }
+        steps_with_events += e.soft_contact_count > 0 ? 1 : 0;
+    }
+    sinew_transform xf;
+    REQUIRE(sinew_body_get_transform(t.ball, &xf) == SINEW_OK);
+    CHECK(xf.p.y > 0.5f);  // held by the cloth (pinned at y = 1), not on the ground
+    CHECK(steps_with_events >= 55);
+    // Over the last second the cloth gave the resting ball its weight (m g times 1 s); 5% for what is
+    // left of its bounce.
+    CHECK(impulse_y == Approx(9.81f).epsilon(0.05));
+    sinew_world_destroy(t.world);
+}
+
+TEST_CASE("C API: one-way by default lets the ball through; a pair override makes that pair two-way", "[capi][coupling]") {
+    Trampoline t = make_trampoline();
+    for (int s = 0; s < 90; ++s) REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
+    sinew_transform xf;
+    REQUIRE(sinew_body_get_transform(t.ball, &xf) == SINEW_OK);
+    CHECK(xf.p.y < 0.5f);  // through the cloth
+    sinew_world_destroy(t.world);
+
+    t = make_trampoline();
+    REQUIRE(sinew_world_set_pair_coupling(t.world, t.cloth, t.ball, SINEW_COUPLING_TWO_WAY) == SINEW_OK);
+    for (int s = 0; s < 90; ++s) REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
+    REQUIRE(sinew_body_get_transform(t.ball, &xf) == SINEW_OK);
+    CHECK(xf.p.y > 0.5f);
+    sinew_world_destroy(t.world);
+}
+
+TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][coupling][errors]") {
+    Trampoline t = make_trampoline();
+    sinew_coupling bad;
+    poke(bad, 7);
+    CHECK(sinew_world_set_coupling(t.world, bad, 1) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::strstr(sinew_last_error(), "not a sinew_coupling"));
+    CHECK(sinew_world_set_coupling(t.world, SINEW_COUPLING_HYBRID, 2.0f) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::strstr(sinew_last_error(), "gain"));
+    sinew_coupling c;
+    REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_ONE_WAY);
+    CHECK(sinew_world_get_coupling(t.world, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    sinew_soft_body_id stale = t.cloth;
+    stale.generation += 1;
+    CHECK(sinew_world_set_pair_coupling(t.world, stale, t.ball, SINEW_COUPLING_TWO_WAY) == SINEW_ERROR_STALE_ID);
+    sinew_body_id stale_body = t.ball;
+    stale_body.generation += 1;
+    CHECK(sinew_world_set_pair_coupling(t.world, t.cloth, stale_body, SINEW_COUPLING_TWO_WAY) == SINEW_ERROR_STALE_ID);
+    sinew_world_destroy(t.world);
+}
