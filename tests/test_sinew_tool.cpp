@@ -358,6 +358,31 @@ TEST_CASE("bench fem prints one JSON line per run, Sinew and Bullet's deformable
     }
 }
 
+TEST_CASE("bench coupling prints one JSON line per scene and strategy", "[tool][bench][coupling]") {
+    const std::string dir = quote(kSource + "/demos/scenes");
+    const Result r = sinew_cmd("bench coupling --scenes box-on-soft-block --steps 60 --scene-dir " + dir);
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const std::vector<std::string> lines = lines_of(r.out);
+    REQUIRE(lines.size() == 3);
+    const char* strategies[] = {"one-way", "two-way", "hybrid"};
+    for (int k = 0; k < 3; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k)]);
+        CHECK(j["scene"] == "box-on-soft-block");
+        CHECK(j["strategy"] == strategies[k]);
+        CHECK(j["steps"] == 60);
+        CHECK(j["finite"] == true);
+    }
+    // One second in: under two-way the block carries the box (its weight within 5%: it is still settling).
+    CHECK(nlohmann::json::parse(lines[1])["carried"].get<double>() == Approx(1).epsilon(0.05));
+    CHECK(nlohmann::json::parse(lines[0])["carried"].get<double>() == 0);  // one-way sends nothing back
+    const Result bad = sinew_cmd("bench coupling --scenes no-such-scene --scene-dir " + dir);
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 1);
+    CHECK_THAT(bad.err, Contains("no-such-scene"));
+}
+
 TEST_CASE("mesh fills a closed OBJ surface with tets through TetGen, and refuses an open one", "[tool][fem]") {
     const fs::path dir = scratch();
     // A unit cube, counter-clockwise from outside.

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "tools/bench/bench_cloth.hpp"
+#include "tools/bench/bench_coupling.hpp"
 #include "tools/bench/bench_fem.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
@@ -208,7 +209,8 @@ int cmd_bench(const std::vector<std::string>& args) {
     using tool::UsageError;
     if (!args.empty() && args[0] == "cloth") return cmd_bench_cloth(args);  // tools/bench/bench_cloth.cpp
     if (!args.empty() && args[0] == "fem") return cmd_bench_fem(args);  // tools/bench/bench_fem.cpp
-    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? 'rigid' or 'cloth'");
+    if (!args.empty() && args[0] == "coupling") return cmd_bench_coupling(args);  // tools/bench/bench_coupling.cpp
+    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? 'rigid', 'cloth', 'fem' or 'coupling'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10;
     std::string chart, markdown, scene_dir = "demos/scenes";
@@ -342,5 +344,12 @@ const Command bench_command = {
     "One JSON line per run: scene, engine, variant, tets, nodes, steps, ms_per_step_median,\n"
     "tip_deflection (beams: m, mean over the last second), accuracy (beams: tip / reference; blocks:\n"
     "final volume ratio), min_volume_ratio (over the run), inverted (tets at the end), finite.\n"
-    "--chart draws beam error against time and block time against tets; --markdown rewrites bench-fem.\n"};
+    "--chart draws beam error against time and block time against tets; --markdown rewrites bench-fem.\n"
+    "\n"
+    "usage: sinew bench coupling [--scenes a,b,...] [--steps N] [--markdown FILE]\n"
+    "\n"
+    "Runs the coupling scenes (default: ball-on-trampoline, box-on-soft-block) under one-way, two-way and\n"
+    "hybrid coupling; one JSON line per run: ms_per_step_median (thread CPU), ratio_to_one_way,\n"
+    "rest_height (m, the scene's first dynamic rigid body at the end), carried (the soft impulses on it\n"
+    "over the last second / its weight times a second), finite. --markdown rewrites bench-coupling.\n"};
 }  // namespace sinew::tool
