@@ -13,7 +13,7 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
     hooks_[0] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::Before,
                                   [this](const StepContext& ctx) { before_soft_solve(ctx.h); }, "coupling: rows -> soft");
     hooks_[1] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::After,
-                                  [this](const StepContext&) { after_soft_solve(); }, "coupling: soft -> rigid");
+                                  [this](const StepContext& ctx) { after_soft_solve(ctx.h); }, "coupling: soft -> rigid");
     hooks_[2] = pipeline.add_hook(soft_index, Stage::IntegratePositions, HookWhen::After,
                                   [this](const StepContext&) { after_step(); }, "coupling: report");
     hooks_[3] = pipeline.add_hook(soft_index, Stage::IntegrateVelocities, HookWhen::Before,
@@ -21,6 +21,10 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
     const int rigid_index = pipeline.find_system(rigid.name());
     hooks_[4] = pipeline.add_hook(rigid_index, Stage::SolveVelocities, HookWhen::Before,
                                   [this](const StepContext&) { send_back_share_impulses(); }, "coupling: held -> rigid");
+    hooks_[5] = pipeline.add_hook(rigid_index, Stage::IntegrateVelocities, HookWhen::Before,
+                                  [this](const StepContext&) { apply_interleaved_forces(); }, "interleaved: forces -> rigid");
+    hooks_[6] = pipeline.add_hook(soft_index, Stage::DetectCollisions, HookWhen::After,
+                                  [this](const StepContext&) { snapshot_colliders(); }, "interleaved: predicted poses");
 }
 
 CouplingLayer::~CouplingLayer() {
@@ -172,12 +176,16 @@ void CouplingLayer::send_back_share_impulses() {
     }
 }
 
-void CouplingLayer::before_soft_solve(Real h) { rows_.hand_to_soft_prediction(h); }
+void CouplingLayer::before_soft_solve(Real h) {
+    keep_previous_poses();
+    rows_.hand_to_soft_prediction(h);
+}
 
-void CouplingLayer::after_soft_solve() {
+void CouplingLayer::after_soft_solve(Real h) {
     // Every velocity is solved and no position has moved (seed 001 Figure 9): the reactions go back now,
     // so the rigid bodies' positions of this step already feel them.
     if (any(CouplingStrategy::Hybrid)) send_back_contact_impulses(CouplingStrategy::Hybrid, settings_.gain);
+    if (any(CouplingStrategy::Interleaved)) gather_interleaved_forces(h);
     if (rows_.empty()) return;
     send_back_contact_impulses(CouplingStrategy::TwoWay, 1);
     rows_.take_soft_velocities();
@@ -222,6 +230,7 @@ void CouplingLayer::send_back_contact_impulses(CouplingStrategy strategy, Real g
 }
 
 void CouplingLayer::after_step() {
+    repair_interleaved();
     // A particle the rows pushed is in contact even if the contact pass, which looks at the particle's
     // final position, found it just outside its slop (the soft step's rows settle a box about 0.2
     // thicknesses above a block, and with rows alone the block sank ten times its static depth): it

@@ -60,12 +60,24 @@ private:
     void send_back_share_impulses();
     void hold_at_rigid_speed(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
     void before_soft_solve(Real h);
-    void after_soft_solve();
+    void after_soft_solve(Real h);
     void after_step();
     /// The opposite of the impulses the soft contact pass gave particles touching dynamic rigid bodies
     /// under `strategy`, times `gain`, applied to those bodies' velocities now.
     void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
     bool any(CouplingStrategy s) const;
+
+    // Interleaved (coupling/interleaved_coupling.cpp), in step order.
+    /// Before rigid IntegrateVelocities: last step's soft contact forces act on the rigid bodies.
+    void apply_interleaved_forces();
+    /// After soft DetectCollisions: the colliders as predicted from the rigid bodies' previous motion.
+    void snapshot_colliders();
+    /// Before soft SolveVelocities, after the one-way refinement: interleaved colliders keep the snapshot.
+    void keep_previous_poses();
+    /// After soft SolveVelocities: the soft contacts' forces kept for the next step, repairs listed.
+    void gather_interleaved_forces(Real h);
+    /// After soft IntegratePositions: the repair step.
+    void repair_interleaved();
 
     Pipeline& pipeline_;
     RigidSystem& rigid_;
@@ -78,7 +90,26 @@ private:
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
     /// Per soft slot, per particle: last step's share pushed outside the friction cone (normal share next).
     std::vector<std::vector<std::uint8_t>> slip_;
-    int hooks_[5] = {0, 0, 0, 0, 0};
+    int hooks_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+
+    struct PendingForce {
+        std::uint32_t rigid, generation;
+        Vec3 local_point;  ///< in the body's frame (origin transform)
+        Vec3 force;        ///< N, world
+    };
+    struct Repair {
+        std::uint32_t soft, particle, collider;
+    };
+    std::vector<Collider> snapshot_;              ///< this step's colliders as first predicted
+    std::vector<std::uint8_t> interleaved_;       ///< per collider: some soft body is interleaved against it
+    std::vector<PendingForce> pending_forces_;
+    std::vector<Repair> repairs_;
+    Real last_repair_ = 0;
+
+public:
+    /// Interleaved: the largest distance the last repair step moved a particle (m): the discrepancy
+    /// between where the soft bodies were told a rigid body would go and where it went.
+    Real last_repair() const { return last_repair_; }
 };
 
 }  // namespace sinew

@@ -7,7 +7,7 @@
 namespace sinew {
 
 namespace {
-const char* const kNames[] = {"one-way", "two-way", "hybrid"};
+const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved"};
 static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
 }  // namespace
 

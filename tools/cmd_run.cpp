@@ -158,7 +158,7 @@ const Command run_command = {
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
-    "  --coupling S    rigid-soft coupling for every pair: one-way, two-way or hybrid (overrides the\n"
+    "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid or interleaved (overrides the\n"
     "                  scene's \"coupling\" section, its pairs included; docs/coupling.md)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md)\n"

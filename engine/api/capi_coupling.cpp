@@ -21,6 +21,7 @@ bool strategy_of(sinew_coupling c, CouplingStrategy& out) {
         case SINEW_COUPLING_ONE_WAY: out = CouplingStrategy::OneWay; return true;
         case SINEW_COUPLING_TWO_WAY: out = CouplingStrategy::TwoWay; return true;
         case SINEW_COUPLING_HYBRID: out = CouplingStrategy::Hybrid; return true;
+        case SINEW_COUPLING_INTERLEAVED: out = CouplingStrategy::Interleaved; return true;
         default: return false;
     }
 }

@@ -145,7 +145,8 @@ int cmd_bench_coupling(const std::vector<std::string>& args) {
         const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");
         const int n = steps > 0 ? steps : scene.steps;
         double one_way_ms = 0;
-        for (CouplingStrategy s : {CouplingStrategy::OneWay, CouplingStrategy::TwoWay, CouplingStrategy::Hybrid}) {
+        for (CouplingStrategy s : {CouplingStrategy::OneWay, CouplingStrategy::TwoWay, CouplingStrategy::Hybrid,
+                                   CouplingStrategy::Interleaved}) {
             CouplingRun r = run_one(scene, s, n, BenchClock::ThreadCpu);
             if (s == CouplingStrategy::OneWay) one_way_ms = r.ms_per_step_median;
             r.ratio_to_one_way = one_way_ms > 0 ? r.ms_per_step_median / one_way_ms : 1;

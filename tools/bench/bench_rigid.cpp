@@ -348,8 +348,8 @@ const Command bench_command = {
     "\n"
     "usage: sinew bench coupling [--scenes a,b,...] [--steps N] [--markdown FILE]\n"
     "\n"
-    "Runs the coupling scenes (default: ball-on-trampoline, box-on-soft-block) under one-way, two-way and\n"
-    "hybrid coupling; one JSON line per run: ms_per_step_median (thread CPU), ratio_to_one_way,\n"
+    "Runs the coupling scenes (default: ball-on-trampoline, box-on-soft-block) under one-way, two-way,\n"
+    "hybrid and interleaved coupling; one JSON line per run: ms_per_step_median (thread CPU), ratio_to_one_way,\n"
     "rest_height (m, the scene's first dynamic rigid body at the end), carried (the soft impulses on it\n"
     "over the last second / its weight times a second), finite. --markdown rewrites bench-coupling.\n"};
 }  // namespace sinew::tool
