@@ -163,15 +163,7 @@ void CouplingLayer::send_back_share_impulses() {
             // (ParticleRows::queue_push).
             const Vec3 j = -jp;
             rows_.queue_push(o, j, b.p.x[i] - st.x[o]);
-            CouplingImpulse out;
-            out.rigid = o;
-            out.soft = s;
-            out.particle = i;
-            out.point = b.p.x[i] - b.def.thickness * nrm;
-            out.normal = nrm;
-            out.impulse = j;
-            out.held = true;
-            sent_back_.push_back(out);
+            sent_back_.push_back({o, s, i, b.p.x[i] - b.def.thickness * nrm, nrm, j, true});
         }
     }
 }
@@ -218,14 +210,7 @@ void CouplingLayer::send_back_contact_impulses(CouplingStrategy strategy, Real g
         st.v[o] += st.inv_mass[o] * j;
         // On the normal through the particle, where the particle is now (as the rows do).
         st.w[o] += st.inv_inertia_world[o] * (soft_.slot_body(pc.body).p.x[pc.particle] - st.x[o]).cross(j);
-        CouplingImpulse out;
-        out.rigid = o;
-        out.soft = pc.body;
-        out.particle = pc.particle;
-        out.point = pc.point;
-        out.normal = pc.normal;
-        out.impulse = j;
-        sent_back_.push_back(out);
+        sent_back_.push_back({o, pc.body, pc.particle, pc.point, pc.normal, j});
     }
 }
 

@@ -65,14 +65,7 @@ void CouplingLayer::gather_interleaved_forces(Real h) {
         f.local_point = c.xf.apply_inverse(pc.point);  // the predicted pose the contact was found at
         f.force = -pc.impulse / h;
         pending_forces_.push_back(f);
-        CouplingImpulse out;
-        out.rigid = c.owner;
-        out.soft = pc.body;
-        out.particle = pc.particle;
-        out.point = pc.point;
-        out.normal = pc.normal;
-        out.impulse = -pc.impulse;  // given as a force over the next step
-        sent_back_.push_back(out);
+        sent_back_.push_back({c.owner, pc.body, pc.particle, pc.point, pc.normal, -pc.impulse});  // given as a force over the next step
     }
 }
 

@@ -277,14 +277,7 @@ void ParticleRows::report(std::vector<CouplingImpulse>& out) const {
     for (const Row& r : rows_) {
         if (r.total.isZero()) continue;
         const Particle& p = particles_[r.particle];
-        CouplingImpulse c;
-        c.rigid = r.rigid;
-        c.soft = p.soft;
-        c.particle = p.index;
-        c.point = r.point;
-        c.normal = r.n;
-        c.impulse = -r.total;
-        out.push_back(c);
+        out.push_back({r.rigid, p.soft, p.index, r.point, r.n, -r.total});
     }
 }
 

@@ -132,20 +132,25 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         Vec3& x = b.p.x[i];
         Vec3 n, s;
         const Real d = world_plane(pl, col, x, n, s);
-        if (d > r * (1 + kContactSlop)) {
-            // Out of reach now, but the relaxation pushed it during the step (its links pulled it away
-            // since): that push is in its velocity, so it is reported, or a coupling layer sending the
-            // reactions back would lose it (0.2% of a Verlet cloth's momentum per impact).
-            if (correction_[i].isZero()) continue;
+        // What the contact did to the particle this step: `dv` from this pass and the position corrections
+        // of the relaxation (as a velocity change over h), counted once, by the particle's first contact.
+        const auto record = [&](const Vec3& dv, Real depth) {
             ParticleContact pc;
             pc.body = body_slot;
             pc.particle = i;
             pc.collider = pl.collider;
             pc.normal = n;
             pc.point = s;
-            pc.impulse = b.p.mass[i] * correction_[i] / h;
+            pc.depth = std::max(Real(0), depth);
+            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
             correction_[i].setZero();
             out.push_back(pc);
+        };
+        if (d > r * (1 + kContactSlop)) {
+            // Out of reach now, but the relaxation pushed it during the step (its links pulled it away
+            // since): that push is in its velocity, so it is reported, or a coupling layer sending the
+            // reactions back would lose it (0.2% of a Verlet cloth's momentum per impact).
+            if (!correction_[i].isZero()) record(Vec3::Zero(), 0);
             continue;
         }
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
@@ -184,18 +189,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             x += h * dvt;
         }
         v += dv;
-        ParticleContact pc;
-        pc.body = body_slot;
-        pc.particle = i;
-        pc.collider = pl.collider;
-        pc.normal = n;
-        pc.point = s;
-        pc.depth = std::max(Real(0), depth);
-        // What the contact did to the particle this step: this pass's velocity change and the position
-        // corrections of the relaxation (as a velocity change over h).
-        pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
-        correction_[i].setZero();  // counted once, by the particle's first contact
-        out.push_back(pc);
+        record(dv, depth);
     }
 }
 

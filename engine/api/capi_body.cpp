@@ -9,10 +9,6 @@ using namespace sinew::capi;
 
 namespace {
 
-sinew_status invalid(const char* fn, const std::string& what) {
-    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
-}
-
 /// Checks and converts a shape definition; the factories check the dimensions.
 Shape make_shape(const sinew_shape_def& d) {
     switch (enum_value(d.type)) {

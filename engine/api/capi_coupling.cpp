@@ -9,13 +9,6 @@ using namespace sinew::capi;
 
 namespace {
 
-sinew_status invalid(const char* fn, const std::string& what) {
-    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
-}
-sinew_status null_arg(const char* fn, const char* name) {
-    return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": " + name + " is NULL");
-}
-
 bool strategy_of(sinew_coupling c, CouplingStrategy& out) {
     switch (enum_value(c)) {
         case SINEW_COUPLING_ONE_WAY: out = CouplingStrategy::OneWay; return true;

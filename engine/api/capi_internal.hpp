@@ -17,6 +17,10 @@ namespace sinew::capi {
 /// Fails a call: records the message for sinew_last_error(), sends it to the log callback at
 /// SINEW_LOG_ERROR, and returns the status.
 sinew_status fail(sinew_status status, std::string message);
+/// fail(SINEW_ERROR_INVALID_ARGUMENT, "FN: WHAT").
+sinew_status invalid(const char* fn, const std::string& what);
+/// fail(SINEW_ERROR_NULL_ARGUMENT, "FN: NAME is NULL").
+sinew_status null_arg(const char* fn, const char* name);
 void clear_error();
 /// Sends a message to the host's log callback, if one is set (capi_hooks.cpp).
 void log_message(sinew_log_level level, const std::string& message);

@@ -14,9 +14,6 @@ using namespace sinew::capi;
 
 namespace {
 
-sinew_status invalid(const char* fn, const std::string& what) {
-    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
-}
 std::string vec_text(const sinew_vec3& v) { return to_text(Vec3(Real(v.x), Real(v.y), Real(v.z))); }
 bool nonneg(float x) { return std::isfinite(x) && x >= 0; }
 

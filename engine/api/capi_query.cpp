@@ -11,10 +11,6 @@ using namespace sinew::capi;
 
 namespace {
 
-sinew_status invalid(const char* fn, const std::string& what) {
-    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
-}
-
 // Writes up to capacity ids and the full count.
 sinew_status write_ids(const char* fn, sinew_world_id world, const std::vector<BodyId>& found, sinew_body_id* ids,
                        int capacity, int* count) {

@@ -34,6 +34,14 @@ sinew_status fail(sinew_status status, std::string message) {
     return status;
 }
 
+sinew_status invalid(const char* fn, const std::string& what) {
+    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
+}
+
+sinew_status null_arg(const char* fn, const char* name) {
+    return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": " + name + " is NULL");
+}
+
 void clear_error() { g_last_error.clear(); }
 
 bool finite(const sinew_vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }

@@ -17,12 +17,6 @@ using namespace sinew::capi;
 
 namespace {
 
-sinew_status invalid(const char* fn, const std::string& what) {
-    return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": " + what);
-}
-sinew_status null_arg(const char* fn, const char* name) {
-    return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": " + name + " is NULL");
-}
 std::string vec_text(const sinew_vec3& v) { return to_text(Vec3(Real(v.x), Real(v.y), Real(v.z))); }
 
 bool nonneg(float x) { return std::isfinite(x) && x >= 0; }
