@@ -17,10 +17,10 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
     hooks_[2] = pipeline.add_hook(soft_index, Stage::IntegratePositions, HookWhen::After,
                                   [this](const StepContext&) { after_step(); }, "coupling: report");
     hooks_[3] = pipeline.add_hook(soft_index, Stage::IntegrateVelocities, HookWhen::Before,
-                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "coupling: held contacts");
+                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "coupling: rigid shares");
     const int rigid_index = pipeline.find_system(rigid.name());
     hooks_[4] = pipeline.add_hook(rigid_index, Stage::SolveVelocities, HookWhen::Before,
-                                  [this](const StepContext&) { send_back_share_impulses(); }, "coupling: held -> rigid");
+                                  [this](const StepContext&) { send_back_share_impulses(); }, "coupling: shares -> rigid");
     hooks_[5] = pipeline.add_hook(rigid_index, Stage::IntegrateVelocities, HookWhen::Before,
                                   [this](const StepContext&) { apply_interleaved_forces(); }, "interleaved: forces -> rigid");
     hooks_[6] = pipeline.add_hook(soft_index, Stage::DetectCollisions, HookWhen::After,
@@ -55,8 +55,9 @@ bool CouplingLayer::any(CouplingStrategy s) const {
 }
 
 void CouplingLayer::begin_step(Real h) {
-    // Implicit Euler bodies under two-way coupling hold their contacts in the solve (the held impulse is
-    // what goes back to the rigid body); FEM bodies always do.
+    rows_.reset();
+    // Implicit Euler bodies under two-way coupling record their contacts (FEM bodies always do): the
+    // next solve holds those against static colliders and carries shares of the dynamic bodies.
     const bool world_two_way = settings_.strategy == CouplingStrategy::TwoWay;
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
@@ -66,13 +67,13 @@ void CouplingLayer::begin_step(Real h) {
         for (const CouplingPair& p : settings_.pairs)
             if (p.soft == id) two_way = two_way || p.strategy == CouplingStrategy::TwoWay;
         b.hold_contacts = two_way;
-        if (two_way && b.awake) hold_at_rigid_speed(b, id, s, h);
+        if (two_way && b.awake) assign_shares(b, id, s, h);
         else b.contact_share.clear();
     }
     sent_back_.clear();
 }
 
-void CouplingLayer::hold_at_rigid_speed(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
+void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
     // Each particle the last contact pass (or the rows) found on a dynamic rigid body carries a share of
     // that body's inertia through this step's implicit solve (soft/implicit_euler.cpp, CoupledRow),
     // starting at the body's velocity there (gravity over the step included if the solver adds it

@@ -58,7 +58,8 @@ private:
     /// Two-way: the impulses the rigid bodies' shares gave particles in implicit Euler's solve
     /// (SoftBody::contact_share_impulse), sent back inside the rigid solve.
     void send_back_share_impulses();
-    void hold_at_rigid_speed(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
+    /// Two-way: the shares of rigid bodies implicit body `b` carries through this step's solve.
+    void assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
     void before_soft_solve(Real h);
     void after_soft_solve(Real h);
     void after_step();
@@ -90,7 +91,7 @@ private:
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
     /// Per soft slot, per particle: last step's share pushed outside the friction cone (normal share next).
     std::vector<std::vector<std::uint8_t>> slip_;
-    int hooks_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int hooks_[7] = {0, 0, 0, 0, 0, 0, 0};
 
     struct PendingForce {
         std::uint32_t rigid, generation;

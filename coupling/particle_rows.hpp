@@ -61,6 +61,14 @@ public:
     /// solve), then the particles' changes handed to the soft velocities.
     void exchange_pass(RigidSystem& sys);
     bool empty() const { return rows_.empty(); }
+    /// At the start of a step: last step's rows and pushes dropped (their bodies may be gone), so nothing
+    /// stale is handed on if the rigid solver does not prepare this step. The warm-start impulses stay.
+    void reset() {
+        particles_.clear();
+        rows_.clear();
+        pushes_.clear();
+        push_parts_left_ = 0;
+    }
     std::size_t row_count() const { return rows_.size(); }
     /// An impulse j (N s) on rigid body `rigid` at `arm` from its centre of mass, given to the body inside
     /// the next rigid solve: spread evenly over its sub-steps, as gravity is (the soft step adds gravity
