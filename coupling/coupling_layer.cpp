@@ -44,6 +44,10 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
             throw CouplingError("coupling pair " + std::to_string(k) + ": rigid body " + std::to_string(p.rigid.index) +
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
+    if (s.substeps != settings_.substeps) {
+        soft_.set_substeps(s.substeps, [this](int j, Real) { kinematics_.place_substep(j); });
+        kinematics_.set_substeps(s.substeps);
+    }
     settings_ = s;
 }
 

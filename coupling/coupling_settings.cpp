@@ -42,6 +42,16 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         return "coupling exchange_iterations must be in [1, 100], got " + std::to_string(s.exchange_iterations);
     if (!std::isfinite(s.gain) || s.gain < 0 || s.gain > 1)
         return "coupling gain must be in [0, 1], got " + to_text(s.gain);
+    if (s.substeps < 1 || s.substeps > 64)
+        return "coupling substeps must be in [1, 64], got " + std::to_string(s.substeps);
+    if (s.substeps > 1) {
+        bool one_way = s.strategy == CouplingStrategy::OneWay;
+        for (const CouplingPair& p : s.pairs) one_way = one_way && p.strategy == CouplingStrategy::OneWay;
+        if (!one_way)
+            return "coupling substeps = " + std::to_string(s.substeps) +
+                   " needs one-way coupling for every pair (the other strategies exchange impulses within one "
+                   "step of both systems)";
+    }
     for (std::size_t k = 0; k < s.pairs.size(); ++k) {
         const CouplingPair& p = s.pairs[k];
         if (std::size_t(p.strategy) >= std::size_t(CouplingStrategy::Count))

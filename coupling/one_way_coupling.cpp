@@ -20,46 +20,84 @@ OneWayCoupling::~OneWayCoupling() {
     for (int h : hooks_) pipeline_.remove_hook(h);
 }
 
-namespace {
+void OneWayCoupling::set_substeps(int k) { substeps_ = k; }
 
-// A rigid body's pose at the end of the step, predicted from its current motion over `t`.
-void place_collider(Collider& c, const RigidSystem& rigid, std::uint32_t slot, Real t) {
-    const RigidSystem::State& st = rigid.state();
-    c.xf = rigid.predicted_transform(slot, t);
-    c.com = st.x[slot] + t * st.v[slot];
+Transform OneWayCoupling::between(std::uint32_t slot, Real t, Real f, Vec3& com) const {
+    const RigidSystem::State& st = rigid_.state();
+    const Transform end = rigid_.predicted_transform(slot, t);
+    const Vec3 end_com = st.x[slot] + t * st.v[slot];
+    if (f >= 1 || slot >= start_.size()) {
+        com = end_com;
+        return end;
+    }
+    com = start_com_[slot] + f * (end_com - start_com_[slot]);
+    Transform out;
+    out.p = start_[slot].p + f * (end.p - start_[slot].p);
+    out.q = start_[slot].q.slerp(f, end.q);
+    return out;
+}
+
+// A rigid body as a collider, a fraction f of the way to its pose t seconds from now (f = 1: the end of
+// the step, predicted from its current motion over t).
+void OneWayCoupling::place_collider(Collider& c, std::uint32_t slot, Real t, Real f) const {
+    const RigidSystem::State& st = rigid_.state();
+    c.xf = between(slot, t, f, c.com);
     c.v = st.v[slot];
     c.w = st.w[slot];
     c.box = c.shape->bounds(c.xf);
 }
 
-void place_attachment(Attachment& a, const RigidSystem& rigid, Real t) {
+void OneWayCoupling::place_attachment(Attachment& a, Real t, Real f) const {
     const BodyId id = unpack_body_id(a.target);
-    a.frame_valid = rigid.valid(id);
+    a.frame_valid = rigid_.valid(id);
     if (!a.frame_valid) return;
-    const RigidSystem::State& st = rigid.state();
-    a.frame = rigid.predicted_transform(id.index, t);
-    a.frame_com = st.x[id.index] + t * st.v[id.index];
+    const RigidSystem::State& st = rigid_.state();
+    a.frame = between(id.index, t, f, a.frame_com);
     a.frame_v = st.v[id.index];
     a.frame_w = st.w[id.index];
 }
 
-}  // namespace
-
 void OneWayCoupling::update() {
     const Real t = rigid_.unintegrated_time();
+    const Real f = Real(1) / Real(substeps_);
     for (Collider& c : soft_.colliders())
         if (c.owner != kNoOwner && c.owner < rigid_.slot_count() && rigid_.slot_alive(c.owner))
-            place_collider(c, rigid_, c.owner, t);
-    refresh_attachments();
+            place_collider(c, c.owner, t, f);
+    place_attachments(t, f);
 }
 
-void OneWayCoupling::refresh_attachments() {
-    const Real t = rigid_.unintegrated_time();
+void OneWayCoupling::place_substep(int j) {
+    // After the rigid step: every body is at its end pose (t = 0 from now).
+    const Real f = Real(j + 1) / Real(substeps_);
+    for (Collider& c : soft_.colliders())
+        if (c.owner != kNoOwner && c.owner < rigid_.slot_count() && rigid_.slot_alive(c.owner))
+            place_collider(c, c.owner, 0, f);
+    place_attachments(0, f);
+}
+
+void OneWayCoupling::place_attachments(Real t, Real f) {
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
         // Read even when the body sleeps: a moving attachment wakes it.
-        for (Attachment& a : soft_.slot_body(s).attachments) place_attachment(a, rigid_, t);
+        for (Attachment& a : soft_.slot_body(s).attachments) place_attachment(a, t, f);
     }
+}
+
+void OneWayCoupling::refresh_attachments() {
+    if (substeps_ > 1) {
+        // The start of the step: every body's pose, for the sub-steps' interpolation.
+        const RigidSystem::State& st = rigid_.state();
+        start_.resize(rigid_.slot_count());
+        start_com_.resize(rigid_.slot_count());
+        for (std::uint32_t s = 0; s < rigid_.slot_count(); ++s) {
+            if (!rigid_.slot_alive(s)) continue;
+            start_[s] = rigid_.slot_transform(s);
+            start_com_[s] = st.x[s];
+        }
+    } else {
+        start_.clear();
+    }
+    place_attachments(rigid_.unintegrated_time(), Real(1) / Real(substeps_));
 }
 
 void OneWayCoupling::refresh_colliders(Real h) {
@@ -92,7 +130,7 @@ void OneWayCoupling::refresh_colliders(Real h) {
             mark_[slot] = stamp_;
             Collider c;
             c.shape = &rigid_.slot_shape(slot);
-            place_collider(c, rigid_, slot, t);
+            place_collider(c, slot, t, Real(1) / Real(substeps_));
             c.friction = rigid_.slot_material(slot).friction;
             c.restitution = rigid_.slot_material(slot).restitution;
             c.owner = slot;

@@ -38,6 +38,13 @@ public:
     void refresh_colliders(Real h);
     /// Re-predicts the poses and velocities of the colliders refresh_colliders() chose, and the frames.
     void update();
+    /// Sub-stepping: the soft system runs k steps of h/k per step. The colliders and frames of the first
+    /// are placed a k-th of the way from each body's pose at the start of the step to its predicted end;
+    /// before sub-step j + 1 (j = 1 .. k-1, after the rigid step) place_substep(j) puts them (j+1)/k of
+    /// the way to where the body ended (positions interpolated, orientations slerped: exact for constant
+    /// velocities), with the body's velocity.
+    void set_substeps(int k);
+    void place_substep(int j);
 
 private:
     Pipeline& pipeline_;
@@ -46,6 +53,14 @@ private:
     int hooks_[3] = {0, 0, 0};
     std::vector<std::uint32_t> mark_;  ///< per rigid slot: step stamp when added as a collider
     std::uint32_t stamp_ = 0;
+    int substeps_ = 1;
+    std::vector<Transform> start_;  ///< sub-stepping: per rigid slot, its pose at the start of the step
+    std::vector<Vec3> start_com_;
+    /// Where body `slot` is a fraction f of the way from its start pose to its pose t seconds from now.
+    Transform between(std::uint32_t slot, Real t, Real f, Vec3& com) const;
+    void place_collider(Collider& c, std::uint32_t slot, Real t, Real f) const;
+    void place_attachment(Attachment& a, Real t, Real f) const;
+    void place_attachments(Real t, Real f);
 };
 
 }  // namespace sinew

@@ -246,12 +246,31 @@ Aabb SoftSystem::bounds(std::uint32_t slot) const {
 
 // ---- stepping -----------------------------------------------------------------------------------------
 
+void SoftSystem::set_substeps(int k, std::function<void(int, Real)> before_substep) {
+    if (k < 1 || k > 64) throw SoftError("soft sub-steps must be in [1, 64], got " + std::to_string(k));
+    if (k > 1 && !before_substep) throw SoftError("soft sub-steps > 1 need a callback that places the colliders");
+    substeps_ = k;
+    before_substep_ = std::move(before_substep);
+}
+
 void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
+    const Real h = ctx.h / Real(substeps_);
     switch (stage) {
-        case Stage::IntegrateVelocities: integrate_velocities(ctx.h); break;
-        case Stage::DetectCollisions: detect_collisions(ctx.h); break;
-        case Stage::SolveVelocities: solve_velocities(ctx.h); break;
-        case Stage::IntegratePositions: integrate_positions(ctx.h); break;
+        case Stage::IntegrateVelocities: integrate_velocities(h); break;
+        case Stage::DetectCollisions: detect_collisions(h); break;
+        case Stage::SolveVelocities: solve_velocities(h); break;
+        case Stage::IntegratePositions:
+            integrate_positions(h);
+            for (int j = 1; j < substeps_; ++j) {
+                // The other sub-steps, whole: the rigid bodies have finished the step, so the callback
+                // places them where they are at the end of this sub-step. Contacts are those of the last.
+                before_substep_(j, h);
+                integrate_velocities(h);
+                detect_collisions(h);
+                solve_velocities(h);
+                integrate_positions(h);
+            }
+            break;
         default: break;
     }
 }

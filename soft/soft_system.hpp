@@ -14,6 +14,7 @@
 // refined (same colliders, end-of-step poses) before SolveVelocities.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "engine/core/pipeline.hpp"
@@ -43,6 +44,14 @@ public:
 
     const SoftSettings& settings() const { return settings_; }
     void set_settings(const SoftSettings& s);  ///< validates (throws SoftError)
+
+    /// Sub-stepping (one-way coupling's passive rate, seed 001 §1.1): each pipeline step of h runs k soft
+    /// steps of h/k. The first is the pipeline's own stages; the other k - 1 run whole at the end of
+    /// IntegratePositions, each after `before_substep(j, h/k)` (j = 1 .. k-1) has placed the colliders and
+    /// attachment frames where they are at the end of sub-step j + 1. Throws SoftError for k outside
+    /// [1, 64] or k > 1 without a callback.
+    void set_substeps(int k, std::function<void(int, Real)> before_substep);
+    int substeps() const { return substeps_; }
 
     /// Validates def (throws SoftError naming the field and index; nothing is changed) and creates it.
     SoftBodyId create_body(SoftBodyDef def);
@@ -116,6 +125,8 @@ private:
     void record_contacts(SoftBody& b, std::size_t first);
 
     SoftSettings settings_;
+    int substeps_ = 1;
+    std::function<void(int, Real)> before_substep_;
     std::vector<SoftBody> bodies_;
     Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
     std::vector<Collider> colliders_;

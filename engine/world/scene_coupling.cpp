@@ -16,11 +16,15 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     // Files written before the section existed may hold the reserved empty array: the default, one-way.
     if (node.json().is_array() && node.json().empty()) return;
     node.expect_object();
-    node.allow_keys({"strategy", "exchange_iterations", "gain", "pairs"});
+    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "pairs"});
     CouplingSettings& s = desc.coupling.settings;
     s.strategy = read_strategy(node, "strategy", s.strategy);
     s.exchange_iterations = read_int(node, "exchange_iterations", s.exchange_iterations, 1, 100);
     s.gain = read_real(node, "gain", s.gain, Range::UnitInterval);
+    s.substeps = read_int(node, "substeps", s.substeps, 1, 64);
+    if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay)
+        node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way strategy, got \"" +
+                                  coupling_strategy_name(s.strategy) + "\"");
     std::optional<Node> pairs = node.find("pairs");
     if (!pairs) return;
     std::unordered_map<std::string, std::size_t> soft_index, rigid_index;

@@ -395,10 +395,11 @@ std::string scene_text(const World& world, const std::string& name, const std::s
         pairs.push_back(std::move(j));
     }
     if (c.strategy != defaults.strategy || c.exchange_iterations != defaults.exchange_iterations ||
-        c.gain != defaults.gain || !pairs.empty()) {
+        c.gain != defaults.gain || c.substeps != defaults.substeps || !pairs.empty()) {
         Json j = {{"strategy", coupling_strategy_name(c.strategy)},
                   {"exchange_iterations", c.exchange_iterations},
-                  {"gain", c.gain}};
+                  {"gain", c.gain},
+                  {"substeps", c.substeps}};
         if (!pairs.empty()) j["pairs"] = std::move(pairs);
         doc["coupling"] = std::move(j);
     }

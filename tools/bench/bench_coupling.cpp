@@ -53,6 +53,7 @@ CouplingRun run_one(const SceneDesc& scene, CouplingStrategy strategy, int steps
     SceneDesc d = scene;
     d.coupling.settings.strategy = strategy;
     d.coupling.pairs.clear();
+    if (strategy != CouplingStrategy::OneWay) d.coupling.settings.substeps = 1;  // sub-steps are one-way's
     // Awake throughout: a sleeping pair costs nothing and exchanges nothing, which would measure neither.
     d.settings.rigid.sleeping = false;
     d.settings.soft.sleeping = false;
