@@ -22,7 +22,11 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
     hooks_[4] = pipeline.add_hook(rigid_index, Stage::SolveVelocities, HookWhen::Before,
                                   [this](const StepContext&) { send_back_share_impulses(); }, "coupling: shares -> rigid");
     hooks_[5] = pipeline.add_hook(rigid_index, Stage::IntegrateVelocities, HookWhen::Before,
-                                  [this](const StepContext&) { apply_interleaved_forces(); }, "interleaved: forces -> rigid");
+                                  [this](const StepContext&) {
+                                      apply_interleaved_forces();
+                                      apply_late_impulses();
+                                  },
+                                  "interleaved and sub-stepped hybrid: last step's reactions -> rigid");
     hooks_[6] = pipeline.add_hook(soft_index, Stage::DetectCollisions, HookWhen::After,
                                   [this](const StepContext&) { snapshot_colliders(); }, "interleaved: predicted poses");
 }
@@ -45,7 +49,7 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
     if (s.substeps != settings_.substeps) {
-        soft_.set_substeps(s.substeps, [this](int j, Real) { kinematics_.place_substep(j); });
+        soft_.set_substeps(s.substeps, [this](int j, Real) { before_soft_substep(j); });
         kinematics_.set_substeps(s.substeps);
     }
     settings_ = s;
@@ -219,7 +223,40 @@ void CouplingLayer::send_back_contact_impulses(CouplingStrategy strategy, Real g
     }
 }
 
+void CouplingLayer::before_soft_substep(int j) {
+    // Sub-step j has finished (the first one's reaction went back after its solve): hybrid keeps what its
+    // contacts gave, for the next step.
+    if (j >= 2) collect_hybrid_reaction();
+    kinematics_.place_substep(j);
+}
+
+void CouplingLayer::collect_hybrid_reaction() {
+    if (!any(CouplingStrategy::Hybrid)) return;
+    const std::vector<Collider>& colliders = soft_.colliders();
+    for (const ParticleContact& pc : soft_.contacts()) {
+        const Collider& c = colliders[pc.collider];
+        if (!c.dynamic || c.owner >= rigid_.slot_count() || !rigid_.slot_alive(c.owner) || pc.impulse.isZero()) continue;
+        const BodyId rid = rigid_.id_of_slot(c.owner);
+        if (coupling_strategy_of(settings_, soft_.id_of_slot(pc.body), rid) != CouplingStrategy::Hybrid) continue;
+        const Vec3 j = -settings_.gain * pc.impulse;
+        // In the body's frame at the pose the sub-step met it; applied next step where the body is then.
+        late_impulses_.push_back({c.owner, rid.generation, c.xf.apply_inverse(pc.point), j});
+        sent_back_.push_back({c.owner, pc.body, pc.particle, pc.point, pc.normal, j});
+    }
+}
+
+void CouplingLayer::apply_late_impulses() {
+    for (const PendingForce& f : late_impulses_) {
+        if (f.rigid >= rigid_.slot_count() || !rigid_.slot_alive(f.rigid)) continue;
+        const BodyId id = rigid_.id_of_slot(f.rigid);
+        if (id.generation != f.generation) continue;
+        rigid_.apply_impulse(id, f.force, rigid_.slot_transform(f.rigid).apply(f.local_point));
+    }
+    late_impulses_.clear();
+}
+
 void CouplingLayer::after_step() {
+    if (settings_.substeps > 1) collect_hybrid_reaction();  // the last sub-step's
     repair_interleaved();
     // A particle the rows pushed is in contact even if the contact pass, which looks at the particle's
     // final position, found it just outside its slop (the soft step's rows settle a box about 0.2

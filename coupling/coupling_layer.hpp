@@ -68,6 +68,12 @@ private:
     void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
     bool any(CouplingStrategy s) const;
 
+    /// Sub-stepping: before soft sub-step j + 1 (coupling substeps > 1).
+    void before_soft_substep(int j);
+    /// Hybrid with sub-steps: the reaction of a sub-step after the first, kept for the next step.
+    void collect_hybrid_reaction();
+    void apply_late_impulses();
+
     // Interleaved (coupling/interleaved_coupling.cpp), in step order.
     /// Before rigid IntegrateVelocities: last step's soft contact forces act on the rigid bodies.
     void apply_interleaved_forces();
@@ -104,6 +110,7 @@ private:
     std::vector<Collider> snapshot_;              ///< this step's colliders as first predicted
     std::vector<std::uint8_t> interleaved_;       ///< per collider: some soft body is interleaved against it
     std::vector<PendingForce> pending_forces_;
+    std::vector<PendingForce> late_impulses_;     ///< hybrid's sub-step reactions (N s in `force`), next step
     std::vector<Repair> repairs_;
     Real last_repair_ = 0;
 

@@ -45,11 +45,12 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
     if (s.substeps < 1 || s.substeps > 64)
         return "coupling substeps must be in [1, 64], got " + std::to_string(s.substeps);
     if (s.substeps > 1) {
-        bool one_way = s.strategy == CouplingStrategy::OneWay;
-        for (const CouplingPair& p : s.pairs) one_way = one_way && p.strategy == CouplingStrategy::OneWay;
-        if (!one_way)
+        const auto passive = [](CouplingStrategy c) { return c == CouplingStrategy::OneWay || c == CouplingStrategy::Hybrid; };
+        bool ok = passive(s.strategy);
+        for (const CouplingPair& p : s.pairs) ok = ok && passive(p.strategy);
+        if (!ok)
             return "coupling substeps = " + std::to_string(s.substeps) +
-                   " needs one-way coupling for every pair (the other strategies exchange impulses within one "
+                   " needs one-way or hybrid coupling for every pair (two-way and interleaved exchange within one "
                    "step of both systems)";
     }
     for (std::size_t k = 0; k < s.pairs.size(); ++k) {

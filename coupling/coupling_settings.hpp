@@ -53,9 +53,10 @@ struct CouplingSettings {
     int exchange_iterations = 2;
     /// Hybrid: the share of the soft contacts' impulse sent back to the rigid body, in [0, 1].
     Real gain = 1;
-    /// One-way: soft steps per rigid step, in [1, 64] (a stiff cloth at 300 Hz under a 60 Hz rigid world:
-    /// 5), against the rigid bodies' poses interpolated over the step. Above 1 every pair must be one-way
-    /// (the other strategies exchange impulses within one step of both systems).
+    /// One-way and hybrid: soft steps per rigid step, in [1, 64] (a stiff cloth at 300 Hz under a 60 Hz
+    /// rigid world: 5), against the rigid bodies' poses interpolated over the step. Above 1 every pair must
+    /// be one-way or hybrid (two-way and interleaved exchange within one step of both systems); hybrid's
+    /// reaction from the sub-steps after the first reaches the rigid bodies in the next step.
     int substeps = 1;
     /// Later entries win over earlier ones; a pair naming one rigid body wins over one naming none.
     std::vector<CouplingPair> pairs;

@@ -22,8 +22,8 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     s.exchange_iterations = read_int(node, "exchange_iterations", s.exchange_iterations, 1, 100);
     s.gain = read_real(node, "gain", s.gain, Range::UnitInterval);
     s.substeps = read_int(node, "substeps", s.substeps, 1, 64);
-    if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay)
-        node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way strategy, got \"" +
+    if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay && s.strategy != CouplingStrategy::Hybrid)
+        node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way or hybrid strategy, got \"" +
                                   coupling_strategy_name(s.strategy) + "\"");
     std::optional<Node> pairs = node.find("pairs");
     if (!pairs) return;
