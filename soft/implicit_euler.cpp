@@ -170,7 +170,9 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // ground as falling freely and the contact pass pushes its bottom back each step: a resting FEM block
     // then settled at 0.920 of its volume, against 0.975 clamped at its base; with the filter 0.968 (a 1 m
     // cube of 1,080 tets, E = 1e5, dropped 0.5 m), and a 20k-tet block ends its landing with no inverted
-    // tet (674 without). The soft system records contacts for FEM bodies only (SoftSystem::record_contacts).
+    // tet (674 without). The soft system records contacts for FEM bodies and for bodies under two-way
+    // coupling (SoftSystem::record_contacts); against a dynamic rigid body the latter carry a share of it
+    // instead of a prescribed velocity (coupling/coupling_layer.cpp, assign_shares).
     c.contact_rows.clear();
     c.coupled_rows.clear();
     const bool coupled = b.contact_share.size() == n && b.contact_surface_v.size() == n;

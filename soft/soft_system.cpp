@@ -393,10 +393,11 @@ void SoftSystem::change_predicted_velocity(std::uint32_t slot, std::uint32_t i, 
 }
 
 void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
-    // Only implicit Euler reads them (its constraint filter), for FEM bodies so far: on the springs of a
-    // pressure ball resting on the ground the filter left a rocking cycle of 0.4-3.3 mJ (one rim particle
-    // entering and leaving contact every second) where the projection alone settles below 1 mJ, so
-    // mass-spring bodies keep the projection until that is understood. The arrays are sized once.
+    // Only implicit Euler reads them (its constraint filter and a two-way layer's shares), for FEM bodies
+    // and for bodies a two-way coupling layer asks for (hold_contacts): on the springs of a pressure ball
+    // resting on the ground the filter left a rocking cycle of 0.4-3.3 mJ (one rim particle entering and
+    // leaving contact every second) where the projection alone settles below 1 mJ, so other mass-spring
+    // bodies keep the projection until that is understood. The arrays are sized once.
     if (b.def.method != SoftMethod::ImplicitEuler || !(b.fem || b.hold_contacts)) {
         b.contact_normal.clear();
         return;
