@@ -377,6 +377,20 @@ TEST_CASE("bench coupling prints one JSON line per scene and strategy", "[tool][
     // One second in: under two-way the block carries the box (its weight within 5%: it is still settling).
     CHECK(nlohmann::json::parse(lines[1])["carried"].get<double>() == Approx(1).epsilon(0.05));
     CHECK(nlohmann::json::parse(lines[0])["carried"].get<double>() == 0);  // one-way sends nothing back
+    // Seed 001's Figure 4: four runs, two at five times the rate of the others, all finite.
+    const Result f4 = sinew_cmd("bench coupling --figure-4 --steps 6 --scene-dir " + dir);
+    INFO("stdout: " << f4.out << "\nstderr: " << f4.err);
+    REQUIRE(f4.exited);
+    CHECK(f4.status == 0);
+    const std::vector<std::string> f4_lines = lines_of(f4.out);
+    REQUIRE(f4_lines.size() == 4);
+    const double rates[] = {60, 60, 300, 60};
+    for (int k = 0; k < 4; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(f4_lines[std::size_t(k)]);
+        CHECK(j["rate_hz"].get<double>() == Approx(rates[k]));
+        CHECK(j["steps"] == int(6 * rates[k] / 60));
+        CHECK(j["finite"] == true);
+    }
     const Result bad = sinew_cmd("bench coupling --scenes no-such-scene --scene-dir " + dir);
     REQUIRE(bad.exited);
     CHECK(bad.status == 1);

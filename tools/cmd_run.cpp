@@ -88,7 +88,9 @@ int run(const std::vector<std::string>& args) {
         // The strategy for every pair: the scene's per-pair overrides are dropped with it.
         scene.coupling.settings.strategy = *opt.coupling;
         scene.coupling.pairs.clear();
-        if (*opt.coupling != CouplingStrategy::OneWay) scene.coupling.settings.substeps = 1;  // one-way only
+        // Sub-steps are one-way's and hybrid's; the others step both systems together.
+        if (*opt.coupling == CouplingStrategy::TwoWay || *opt.coupling == CouplingStrategy::Interleaved)
+            scene.coupling.settings.substeps = 1;
     }
 
     std::vector<BodyId> ids;

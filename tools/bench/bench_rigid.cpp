@@ -346,10 +346,13 @@ const Command bench_command = {
     "final volume ratio), min_volume_ratio (over the run), inverted (tets at the end), finite.\n"
     "--chart draws beam error against time and block time against tets; --markdown rewrites bench-fem.\n"
     "\n"
-    "usage: sinew bench coupling [--scenes a,b,...] [--steps N] [--markdown FILE]\n"
+    "usage: sinew bench coupling [--scenes a,b,...] [--steps N] [--markdown FILE] [--figure-4]\n"
     "\n"
     "Runs the coupling scenes (default: ball-on-trampoline, box-on-soft-block) under one-way, two-way,\n"
     "hybrid and interleaved coupling; one JSON line per run: ms_per_step_median (thread CPU), ratio_to_one_way,\n"
     "rest_height (m, the scene's first dynamic rigid body at the end), carried (the soft impulses on it\n"
-    "over the last second / its weight times a second), finite. --markdown rewrites bench-coupling.\n"};
+    "over the last second / its weight times a second), finite. --markdown rewrites bench-coupling.\n"
+    "--figure-4 runs the scene figure-4 instead (seed 001's Figure 4: one-way and hybrid with 5 soft\n"
+    "sub-steps at 60 Hz against two-way at 300 Hz and at 60 Hz, 2 simulated seconds or --steps at 60 Hz),\n"
+    "adding ms_per_second, and --markdown rewrites bench-coupling-figure-4.\n"};
 }  // namespace sinew::tool
