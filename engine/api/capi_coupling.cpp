@@ -9,8 +9,10 @@ using namespace sinew::capi;
 
 namespace {
 
-bool strategy_of(sinew_coupling c, CouplingStrategy& out) {
-    switch (enum_value(c)) {
+// From the enum's int value (enum_value reads the argument's bytes: loading an out-of-range value into
+// the enum type, as passing it by value would, is undefined behaviour in C++).
+bool strategy_of(int c, CouplingStrategy& out) {
+    switch (c) {
         case SINEW_COUPLING_ONE_WAY: out = CouplingStrategy::OneWay; return true;
         case SINEW_COUPLING_TWO_WAY: out = CouplingStrategy::TwoWay; return true;
         case SINEW_COUPLING_HYBRID: out = CouplingStrategy::Hybrid; return true;
@@ -28,7 +30,7 @@ sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strat
         if (!w) return SINEW_ERROR_STALE_ID;
         if (sinew_status s = check_not_stepping(w, fn)) return s;
         CouplingSettings c = w->coupling().settings();
-        if (!strategy_of(strategy, c.strategy))
+        if (!strategy_of(enum_value(strategy), c.strategy))
             return invalid(fn, "strategy = " + std::to_string(enum_value(strategy)) + " is not a sinew_coupling");
         c.gain = Real(gain);
         w->set_coupling(c);  // CouplingError names a bad gain; nothing changes then
@@ -55,7 +57,7 @@ sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body
         if (!w) return SINEW_ERROR_STALE_ID;
         if (sinew_status s = check_not_stepping(w, fn)) return s;
         CouplingPair pair;
-        if (!strategy_of(strategy, pair.strategy))
+        if (!strategy_of(enum_value(strategy), pair.strategy))
             return invalid(fn, "strategy = " + std::to_string(enum_value(strategy)) + " is not a sinew_coupling");
         pair.soft = SoftBodyId{soft.index, soft.generation};
         if (soft.world != pack_world(world) || !w->soft().valid(pair.soft))
