@@ -64,6 +64,7 @@ bool CouplingLayer::any(CouplingStrategy s) const {
 
 void CouplingLayer::begin_step(Real h) {
     rows_.reset();
+    attach_shares_.clear();
     // Implicit Euler bodies under two-way coupling record their contacts (FEM bodies always do): the
     // next solve holds those against static colliders and carries shares of the dynamic bodies.
     const bool world_two_way = settings_.strategy == CouplingStrategy::TwoWay;
@@ -77,6 +78,7 @@ void CouplingLayer::begin_step(Real h) {
         b.hold_contacts = two_way;
         if (two_way && b.awake) assign_shares(b, id, s, h);
         else b.contact_share.clear();
+        ask_attachment_reactions(b, id);
     }
     sent_back_.clear();
 }
@@ -101,7 +103,8 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     //    cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its small
     //    rotational inertia a step late.
     b.contact_share.clear();
-    if (b.contact_owner.size() != b.p.size() || b.contact_normal.size() != b.p.size()) return;
+    const bool contacts_known = b.contact_owner.size() == b.p.size() && b.contact_normal.size() == b.p.size();
+    if (!contacts_known && b.attachments.empty()) return;
     const RigidSystem::State& st = rigid_.state();
     const bool gravity_pending = rigid_.settings().solver == RigidSolverKind::SoftStep;
     share_count_.resize(rigid_.slot_count());
@@ -109,23 +112,57 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     std::vector<std::uint8_t>& slip = slip_[slot];
     if (slip.size() != b.p.size()) slip.assign(b.p.size(), 0);
     const auto eligible = [&](std::uint32_t i) {
+        if (!contacts_known) return false;
         const std::uint32_t o = b.contact_owner[i];
         if (b.p.inv_mass[i] == 0 || b.contact_normal[i].isZero() || o >= rigid_.slot_count() || !rigid_.slot_alive(o))
             return false;
         if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) return false;
         return coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)) == CouplingStrategy::TwoWay;
     };
-    bool any_share = false;
+    // Attachments to a dynamic body under two-way coupling: the attached particle carries the body's whole
+    // effective mass at the point, K^-1 (split with the body's other shares), in all three directions,
+    // and joins the solve (soft/implicit_euler.cpp): the rope's springs then pull the body implicitly,
+    // which a heavy body on a light rope (1:1000) needs. Only implicit Euler solves with shares; a
+    // sleeping body is woken first, since a soft body that moves pulls on it.
+    const std::size_t first_attachment = attach_shares_.size();
+    if (b.def.method == SoftMethod::ImplicitEuler)
+        for (const Attachment& a : b.attachments) {
+            if (!a.frame_valid) continue;
+            const BodyId rid = unpack_body_id(a.target);
+            if (!rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            if (coupling_strategy_of(settings_, id, rid) != CouplingStrategy::TwoWay) continue;
+            if (st.inv_mass[rid.index] == 0) rigid_.wake(rid);
+            if (st.inv_mass[rid.index] == 0) continue;
+            const Vec3 arm = rigid_.slot_transform(rid.index).apply(a.local_point) - st.x[rid.index];
+            attach_shares_.push_back({slot, a.particle, rid.index, arm});
+        }
+    bool any_share = attach_shares_.size() > first_attachment;
     for (std::uint32_t i = 0; i < b.p.size(); ++i)
         if (eligible(i)) share_count_[b.contact_owner[i]] = 0;
+    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) share_count_[attach_shares_[k].rigid] = 0;
     for (std::uint32_t i = 0; i < b.p.size(); ++i)
         if (eligible(i)) {
             ++share_count_[b.contact_owner[i]];
             any_share = true;
         }
+    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) ++share_count_[attach_shares_[k].rigid];
     if (!any_share) return;
     b.contact_share.assign(b.p.size(), Mat3::Zero());
     if (b.contact_surface_v.size() != b.p.size()) b.contact_surface_v.assign(b.p.size(), Vec3::Zero());
+    const auto point_inertia_inverse = [&](std::uint32_t o, const Vec3& r) {
+        const Mat3 rx = skew(r);
+        const Mat3 k = st.inv_mass[o] * Mat3::Identity() - rx * st.inv_inertia_world[o] * rx;
+        const Mat3 k_inv = k.inverse();
+        return k_inv;
+    };
+    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) {
+        const AttachShare& a = attach_shares_[k];
+        const BodyId rid = rigid_.id_of_slot(a.rigid);
+        Vec3 v = st.v[a.rigid] + st.w[a.rigid].cross(a.arm);
+        if (gravity_pending) v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
+        b.contact_surface_v[a.particle] = v;
+        b.contact_share[a.particle] = (1 / Real(share_count_[a.rigid])) * point_inertia_inverse(a.rigid, a.arm);
+    }
     for (std::uint32_t i = 0; i < b.p.size(); ++i) {
         if (!eligible(i)) continue;
         const std::uint32_t o = b.contact_owner[i];
@@ -141,10 +178,57 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
         b.contact_share[i] = (split * rigid_.mass(rid)) * nn;
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
         if (mu > 0 && !slip[i]) {
-            const Mat3 rx = skew(r);
-            const Mat3 k = st.inv_mass[o] * Mat3::Identity() - rx * st.inv_inertia_world[o] * rx;
             const Mat3 t = Mat3::Identity() - nn;
-            b.contact_share[i] += split * (t * k.inverse() * t);
+            b.contact_share[i] += split * (t * point_inertia_inverse(o, r) * t);
+        }
+    }
+}
+
+void CouplingLayer::ask_attachment_reactions(SoftBody& b, SoftBodyId id) {
+    // Hybrid and interleaved attachments to dynamic bodies send back what holding the particle took;
+    // implicit Euler reports it (SoftBody::attachment_impulse).
+    bool wanted = false;
+    if (b.def.method == SoftMethod::ImplicitEuler)
+        for (const Attachment& a : b.attachments) {
+            const BodyId rid = unpack_body_id(a.target);
+            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            const CouplingStrategy st = coupling_strategy_of(settings_, id, rid);
+            wanted = wanted || st == CouplingStrategy::Hybrid || st == CouplingStrategy::Interleaved;
+        }
+    if (wanted) b.attachment_impulse.assign(b.attachments.size(), Vec3::Zero());
+    else b.attachment_impulse.clear();
+}
+
+void CouplingLayer::send_back_attachment_reactions(Real h) {
+    RigidSystem::State& st = rigid_.state();
+    for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
+        if (!soft_.slot_alive(s)) continue;
+        const SoftBody& b = soft_.slot_body(s);
+        if (!b.stepping || b.attachment_impulse.size() != b.attachments.size()) continue;
+        const SoftBodyId id = soft_.id_of_slot(s);
+        for (std::size_t k = 0; k < b.attachments.size(); ++k) {
+            const Attachment& a = b.attachments[k];
+            const BodyId rid = unpack_body_id(a.target);
+            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            const CouplingStrategy strategy = coupling_strategy_of(settings_, id, rid);
+            const std::uint32_t o = rid.index;
+            const Vec3 point = rigid_.slot_transform(o).apply(a.local_point);
+            if (strategy == CouplingStrategy::Hybrid) {
+                const Vec3 j = -settings_.gain * b.attachment_impulse[k];
+                if (j.isZero()) continue;
+                if (st.inv_mass[o] == 0) {
+                    if (j.norm() > rigid_.mass(rid) * rigid_.settings().sleep_linear_velocity) rigid_.wake(rid);
+                    continue;
+                }
+                st.v[o] += st.inv_mass[o] * j;
+                st.w[o] += st.inv_inertia_world[o] * (point - st.x[o]).cross(j);
+                sent_back_.push_back({o, s, a.particle, point, Vec3::Zero(), j});
+            } else if (strategy == CouplingStrategy::Interleaved) {
+                const Vec3 j = -b.attachment_impulse[k];
+                if (j.isZero()) continue;
+                pending_forces_.push_back({o, rid.generation, a.local_point, j / h});  // next step, as a force
+                sent_back_.push_back({o, s, a.particle, point, Vec3::Zero(), j});
+            }
         }
     }
 }
@@ -159,7 +243,7 @@ void CouplingLayer::send_back_share_impulses() {
         if (!b.stepping || b.contact_share.size() != n || b.contact_share_impulse.size() != n) continue;
         std::vector<std::uint8_t>& slip = slip_[s];
         for (std::uint32_t i = 0; i < n; ++i) {
-            if (b.contact_share[i].isZero()) continue;
+            if (b.contact_share[i].isZero() || b.p.inv_mass[i] == 0) continue;  // attachments below
             const Vec3& jp = b.contact_share_impulse[i];  // what the share gave the particle
             const std::uint32_t o = b.contact_owner[i];
             const Vec3& nrm = b.contact_normal[i];
@@ -175,6 +259,15 @@ void CouplingLayer::send_back_share_impulses() {
             sent_back_.push_back({o, s, i, b.p.x[i] - b.def.thickness * nrm, nrm, j, true});
         }
     }
+    // Attachments: what the share gave the attached particle, taken from the body at the attachment point.
+    for (const AttachShare& a : attach_shares_) {
+        const SoftBody& b = soft_.slot_body(a.soft);
+        if (!b.stepping || b.contact_share_impulse.size() != b.p.size()) continue;
+        const Vec3 j = -b.contact_share_impulse[a.particle];
+        if (j.isZero()) continue;
+        rows_.queue_push(a.rigid, j, a.arm);
+        sent_back_.push_back({a.rigid, a.soft, a.particle, st.x[a.rigid] + a.arm, Vec3::Zero(), j, true});
+    }
 }
 
 void CouplingLayer::before_soft_solve(Real h) {
@@ -187,6 +280,7 @@ void CouplingLayer::after_soft_solve(Real h) {
     // so the rigid bodies' positions of this step already feel them.
     if (any(CouplingStrategy::Hybrid)) send_back_contact_impulses(CouplingStrategy::Hybrid, settings_.gain);
     if (any(CouplingStrategy::Interleaved)) gather_interleaved_forces(h);
+    if (any(CouplingStrategy::Hybrid) || any(CouplingStrategy::Interleaved)) send_back_attachment_reactions(h);
     if (rows_.empty()) return;
     send_back_contact_impulses(CouplingStrategy::TwoWay, 1);
     rows_.take_soft_velocities();
@@ -250,6 +344,7 @@ void CouplingLayer::apply_late_impulses() {
         if (f.rigid >= rigid_.slot_count() || !rigid_.slot_alive(f.rigid)) continue;
         const BodyId id = rigid_.id_of_slot(f.rigid);
         if (id.generation != f.generation) continue;
+        if (!is_finite(f.force)) continue;  // as apply_interleaved_forces
         rigid_.apply_impulse(id, f.force, rigid_.slot_transform(f.rigid).apply(f.local_point));
     }
     late_impulses_.clear();

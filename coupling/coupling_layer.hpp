@@ -60,6 +60,11 @@ private:
     void send_back_share_impulses();
     /// Two-way: the shares of rigid bodies implicit body `b` carries through this step's solve.
     void assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
+    /// Sizes b.attachment_impulse when a hybrid or interleaved attachment of b wants its reaction.
+    void ask_attachment_reactions(SoftBody& b, SoftBodyId id);
+    /// After soft SolveVelocities: hybrid attachments give the opposite of what holding their particle
+    /// took, times `gain`, to the body now; interleaved ones as a force over the next step.
+    void send_back_attachment_reactions(Real h);
     void before_soft_solve(Real h);
     void after_soft_solve(Real h);
     void after_step();
@@ -95,6 +100,11 @@ private:
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
+    struct AttachShare {
+        std::uint32_t soft, particle, rigid;
+        Vec3 arm;  ///< attachment point - centre of mass, at the start of the step
+    };
+    std::vector<AttachShare> attach_shares_;   ///< this step's two-way attachments carrying shares
     /// Per soft slot, per particle: last step's share pushed outside the friction cone (normal share next).
     std::vector<std::vector<std::uint8_t>> slip_;
     int hooks_[7] = {0, 0, 0, 0, 0, 0, 0};

@@ -21,6 +21,9 @@ void CouplingLayer::apply_interleaved_forces() {
         if (f.rigid >= rigid_.slot_count() || !rigid_.slot_alive(f.rigid)) continue;
         const BodyId id = rigid_.id_of_slot(f.rigid);
         if (id.generation != f.generation) continue;  // destroyed since
+        // A soft body that blew up (an explicit exchange past its stability limit, docs/coupling.md) has
+        // non-finite impulses: they are dropped here rather than thrown out of the middle of a step.
+        if (!is_finite(f.force)) continue;
         rigid_.apply_force(id, f.force, rigid_.slot_transform(f.rigid).apply(f.local_point));
     }
     pending_forces_.clear();

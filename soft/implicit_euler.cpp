@@ -27,7 +27,9 @@
 //
 // Pinned particles (inverse mass 0) are removed by Baraff-Witkin's filter S = 0: their rows of the
 // residual, the preconditioner and every product are zero, so Δv stays 0 there and CG runs in the free
-// subspace. Their velocity counts as 0 in Δx (the system has already placed attached particles).
+// subspace. Their velocity counts as 0 in Δx (the system has already placed attached particles). An
+// attached particle carrying a two-way layer's share of its rigid body is not filtered: it solves for the
+// change of the body's velocity at that point, which the layer hands to the body.
 //
 // CG: block-Jacobi (3x3 diagonal blocks, inverted once per step) preconditioner; stops when
 // sqrt(rᵀPr / bᵀPb) <= b.def.cg_tolerance or after b.def.iterations iterations (the cap). The cap is the
@@ -72,13 +74,15 @@ namespace {
 
 // The CG product q = A u with A = M (1 + hλ drag) plus each force model's part, and the rows of pinned
 // particles zeroed (the filter).
-void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
+void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q,
+                    bool filter_pinned = true) {
     const std::size_t n = u.size();
     for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
     for (const ForceModel* model : force_models())
         if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
     for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) q[r.particle] += r.share * u[r.particle];
-    for (const std::uint32_t i : c.pinned) q[i].setZero();
+    if (filter_pinned)
+        for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
 // CG stopped before converging leaves a residual r = A Δv - rhs whose sum is a net force: the internal
@@ -126,6 +130,13 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // ∂f/∂x v_n (times h²λ below).
     std::vector<Vec3>& f = c.force;
     c.pinned.clear();
+    // A two-way coupling layer's shares of dynamic rigid bodies (coupling/coupling_layer.cpp,
+    // assign_shares): on contact particles, and on attached particles, which then join the solve (not
+    // pinned) carrying their target's share, so the body feels the springs inside this solve.
+    const bool coupled = b.contact_share.size() == n && b.contact_surface_v.size() == n;
+    const auto held_by_target = [&](std::size_t i) {
+        return p.inv_mass[i] == 0 && !(coupled && !b.contact_share[i].isZero());
+    };
     for (std::size_t i = 0; i < n; ++i) {
         f[i] = p.f[i] + p.mass[i] * (b.gravity - drag * p.v[i]);
         c.rhs[i].setZero();
@@ -134,7 +145,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
         c.mass[i] = md;
         B[0] = B[1] = B[2] = md;
         B[3] = B[4] = B[5] = 0;
-        if (p.inv_mass[i] == 0) c.pinned.push_back(std::uint32_t(i));  // capacity n: no allocation
+        if (held_by_target(i)) c.pinned.push_back(std::uint32_t(i));  // capacity n: no allocation
     }
 
     // Each force model the body has adds its forces, its share of ∂f/∂x v_n and of the diagonal blocks
@@ -153,9 +164,18 @@ void step_implicit_euler(SoftBody& b, Real h) {
             model->add_forces(b, p.x, p.v, f);
     }
 
+    // Attachments whose reaction a coupling layer asks for (SoftBody::attachment_impulse): the unfiltered
+    // right-hand side of their particles, kept before the filter zeroes it.
+    const bool attachment_reactions = !b.attachments.empty() && b.attachment_impulse.size() == b.attachments.size();
+    if (attachment_reactions)
+        for (std::size_t k = 0; k < b.attachments.size(); ++k) {
+            const std::uint32_t i = b.attachments[k].particle;
+            b.attachment_impulse[k] = held_by_target(i) ? Vec3(-(h * f[i] + h2l * c.rhs[i])) : Vec3::Zero();
+        }
+
     // Right-hand side h (f_n + hλ ∂f/∂x v_n), the preconditioner, and the filter.
     for (std::size_t i = 0; i < n; ++i) {
-        if (p.inv_mass[i] == 0) {
+        if (held_by_target(i)) {
             c.rhs[i].setZero();
             std::fill(c.cg.block(i), c.cg.block(i) + 6, Real(0));
             continue;
@@ -175,7 +195,18 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // instead of a prescribed velocity (coupling/coupling_layer.cpp, assign_shares).
     c.contact_rows.clear();
     c.coupled_rows.clear();
-    const bool coupled = b.contact_share.size() == n && b.contact_surface_v.size() == n;
+    const auto add_coupled_row = [&](std::uint32_t i) {
+        // The body's share joins the particle (an inelastic merge), then both take the forces: the share
+        // on the diagonal, its momentum relative to the particle on the right.
+        const Mat3& a = b.contact_share[i];
+        c.coupled_rows.push_back({i, a, b.contact_surface_v[i]});
+        c.rhs[i] += a * (b.contact_surface_v[i] - p.v[i]);
+        Real* B = c.cg.block(i);
+        B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
+    };
+    if (coupled)
+        for (const Attachment& at : b.attachments)
+            if (!b.contact_share[at.particle].isZero()) add_coupled_row(at.particle);
     if (b.contact_normal.size() == n)
         for (std::uint32_t i = 0; i < n; ++i) {
             const Vec3& nrm = b.contact_normal[i];
@@ -183,13 +214,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
             const Real approach = b.contact_speed[i] - nrm.dot(p.v[i]);  // > 0: moving into the collider
             if (approach < Real(-1e-3) || c.contact_released[i]) continue;  // leaving, or pulled last step
             if (coupled && !b.contact_share[i].isZero()) {
-                // The body's share joins the particle (an inelastic merge), then both take the forces: the
-                // share on the diagonal, its momentum relative to the particle on the right.
-                const Mat3& a = b.contact_share[i];
-                c.coupled_rows.push_back({i, a, b.contact_surface_v[i]});
-                c.rhs[i] += a * (b.contact_surface_v[i] - p.v[i]);
-                Real* B = c.cg.block(i);
-                B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
+                add_coupled_row(i);
                 continue;
             }
             c.contact_rows.push_back({i, nrm, std::max(approach, Real(0)) * nrm, nrm.dot(c.rhs[i])});
@@ -254,9 +279,21 @@ void step_implicit_euler(SoftBody& b, Real h) {
         for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
             const Vec3 j = r.share * (r.surface_v - p.v[r.particle] - c.dv[r.particle]);
             b.contact_share_impulse[r.particle] = j;
+            if (p.inv_mass[r.particle] == 0) continue;  // an attachment: bilateral, it may pull
             const Real jn = j.dot(b.contact_normal[r.particle]);
             if (jn < 0) c.contact_released[r.particle] = 1;
             else b.contact_dvn[r.particle] = jn / c.mass[r.particle];  // the contact pass's friction budget
+        }
+    }
+
+    // What holding each attached particle on its target took: its row of the unfiltered system, the
+    // impulse J = (A Δv - rhs)_i the filter's constraint supplied (its own Δv is 0), for a hybrid or
+    // interleaved layer to send back to the body. A two-way share reports through contact_share_impulse.
+    if (attachment_reactions) {
+        system_product(b, c, c.dv, c.cg.q, false);
+        for (std::size_t k = 0; k < b.attachments.size(); ++k) {
+            const std::uint32_t i = b.attachments[k].particle;
+            if (held_by_target(i)) b.attachment_impulse[k] += c.cg.q[i];
         }
     }
 

@@ -165,10 +165,15 @@ struct SoftBody {
     /// share (kg, a symmetric 3x3 inertia) of the dynamic rigid body it touches (contact_owner) that
     /// implicit Euler moves with it, starting at the body's velocity there (contact_surface_v);
     /// contact_share_impulse then reports the impulse that share gave the particle, for the layer to take
-    /// from the body.
+    /// from the body. On an attached particle (inverse mass 0) the share is of its target body and the
+    /// particle joins the solve instead of being held (two-way attachments).
     std::vector<Mat3> contact_share;
     std::vector<Vec3> contact_surface_v;
     std::vector<Vec3> contact_share_impulse;
+    /// One per attachment when a coupling layer asks for them (sized to `attachments`; empty: not asked):
+    /// the impulse (N s) holding the attached particle on its target took in the last solve (implicit
+    /// Euler fills it), whose opposite a hybrid or interleaved layer sends back to the rigid body.
+    std::vector<Vec3> attachment_impulse;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)
