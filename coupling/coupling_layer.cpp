@@ -72,9 +72,18 @@ void CouplingLayer::begin_step(Real h) {
         if (!soft_.slot_alive(s)) continue;
         SoftBody& b = soft_.slot_body(s);
         bool two_way = world_two_way;
+        bool one_solver = settings_.strategy == CouplingStrategy::OneSolver;
         const SoftBodyId id = soft_.id_of_slot(s);
         for (const CouplingPair& p : settings_.pairs)
-            if (p.soft == id) two_way = two_way || p.strategy == CouplingStrategy::TwoWay;
+            if (p.soft == id) {
+                two_way = two_way || p.strategy == CouplingStrategy::TwoWay;
+                one_solver = one_solver || p.strategy == CouplingStrategy::OneSolver;
+            }
+        // One solver: a mass-spring body's whole solve moves into the rigid solver (ParticleRows). FEM
+        // bodies (their elements are not swept there) and Verlet bodies (hard links: as rows they converged
+        // too slowly without warm starting and diverged with it) are coupled as under two-way.
+        b.solved_by_rows = one_solver && !b.fem && b.def.method != SoftMethod::Verlet;
+        two_way = two_way || (one_solver && !b.solved_by_rows);
         b.hold_contacts = two_way;
         if (two_way && b.awake) assign_shares(b, id, s, h);
         else b.contact_share.clear();
@@ -117,7 +126,7 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
         if (b.p.inv_mass[i] == 0 || b.contact_normal[i].isZero() || o >= rigid_.slot_count() || !rigid_.slot_alive(o))
             return false;
         if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) return false;
-        return coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)) == CouplingStrategy::TwoWay;
+        return shares_with(b, coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)));
     };
     // Attachments to a dynamic body under two-way coupling: the attached particle carries the body's whole
     // effective mass at the point, K^-1 (split with the body's other shares), in all three directions,
@@ -130,7 +139,7 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
             if (!a.frame_valid) continue;
             const BodyId rid = unpack_body_id(a.target);
             if (!rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
-            if (coupling_strategy_of(settings_, id, rid) != CouplingStrategy::TwoWay) continue;
+            if (!shares_with(b, coupling_strategy_of(settings_, id, rid))) continue;
             if (st.inv_mass[rid.index] == 0) rigid_.wake(rid);
             if (st.inv_mass[rid.index] == 0) continue;
             const Vec3 arm = rigid_.slot_transform(rid.index).apply(a.local_point) - st.x[rid.index];
@@ -234,7 +243,7 @@ void CouplingLayer::send_back_attachment_reactions(Real h) {
 }
 
 void CouplingLayer::send_back_share_impulses() {
-    if (!any(CouplingStrategy::TwoWay)) return;
+    if (!any(CouplingStrategy::TwoWay) && !any(CouplingStrategy::OneSolver)) return;
     const RigidSystem::State& st = rigid_.state();
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
@@ -272,7 +281,7 @@ void CouplingLayer::send_back_share_impulses() {
 
 void CouplingLayer::before_soft_solve(Real h) {
     keep_previous_poses();
-    rows_.hand_to_soft_prediction(h);
+    rows_.hand_to_soft_prediction(h, rigid_.unintegrated_time());
 }
 
 void CouplingLayer::after_soft_solve(Real h) {
@@ -283,6 +292,7 @@ void CouplingLayer::after_soft_solve(Real h) {
     if (any(CouplingStrategy::Hybrid) || any(CouplingStrategy::Interleaved)) send_back_attachment_reactions(h);
     if (rows_.empty()) return;
     send_back_contact_impulses(CouplingStrategy::TwoWay, 1);
+    send_back_contact_impulses(CouplingStrategy::OneSolver, 1);
     rows_.take_soft_velocities();
     for (int i = 1; i < settings_.exchange_iterations; ++i) rows_.exchange_pass(rigid_);
 }

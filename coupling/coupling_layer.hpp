@@ -72,6 +72,11 @@ private:
     /// under `strategy`, times `gain`, applied to those bodies' velocities now.
     void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
     bool any(CouplingStrategy s) const;
+    /// Body b carries shares of rigid bodies coupled to it by `s`: two-way, or one-solver for a body the
+    /// rigid solver cannot take whole (FEM).
+    static bool shares_with(const SoftBody& b, CouplingStrategy s) {
+        return s == CouplingStrategy::TwoWay || (s == CouplingStrategy::OneSolver && !b.solved_by_rows);
+    }
 
     /// Sub-stepping: before soft sub-step j + 1 (coupling substeps > 1).
     void before_soft_substep(int j);

@@ -19,6 +19,12 @@
 //             the particles that touched a body by the difference between where the body went and
 //             where the soft bodies were told it would go. Best at a large mass disparity (a light
 //             cloth on a heavy body), wrong at 1:1 (seed 001 ch.4 §1).
+//   one-solver  two-way in one solver (the future work seed 001 names): a mass-spring body's whole solve
+//             moves into the rigid solver. Its particles are point masses there, its springs swept a
+//             particle at a time in every pass (block Gauss-Seidel on implicit Euler's system), in the same
+//             loop as the rigid contacts, the joints, the particles' contacts with every collider and its
+//             attachments; its own method only predicts (explicit forces) and runs the contact pass. FEM
+//             and Verlet bodies are coupled as under two-way.
 #pragma once
 
 #include <cstdint>
@@ -30,13 +36,13 @@
 
 namespace sinew {
 
-enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, Count };
+enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, Count };
 
-/// "one-way", "two-way", "hybrid", "interleaved".
+/// "one-way", "two-way", "hybrid", "interleaved", "one-solver".
 const char* coupling_strategy_name(CouplingStrategy s);
 /// Parses a name of coupling_strategy_name (false if unknown).
 bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);
-/// "one-way, two-way, hybrid, interleaved": for error messages.
+/// "one-way, two-way, hybrid, interleaved, one-solver": for error messages.
 std::string coupling_strategy_list();
 
 /// A strategy for one soft body against one rigid body (or against every rigid body: `rigid` null).

@@ -12,6 +12,15 @@
 // impulse (a circle). The impulse goes +w_p J to the particle and -J at r to the body: momentum is
 // exchanged exactly, and angular momentum too (the particle sits on the normal through the surface point).
 //
+// One-solver coupling (coupling/coupling_settings.hpp) puts whole soft bodies here: every particle of a
+// mass-spring body with SoftBody::solved_by_rows. Its springs are swept particle by particle in every
+// pass, before the contact rows (solve_springs: block Gauss-Seidel on implicit Euler's linearised system,
+// re-linearised at every sub-step); its contacts with every collider, static and kinematic ones too, are
+// rows; an attachment to a dynamic body puts the body's point inertia into the attached particle's block.
+// The particles' positions follow the solver's sub-steps (positions_advanced), with gravity a sub-step
+// at a time, and the body takes the rows' positions and velocities before its own stages go on
+// (hand_to_soft_prediction).
+//
 // Built once per step in prepare() from the collision planes the soft system found in DetectCollisions
 // (ParticleCollision::plane), so no second narrow phase runs. A particle's velocity in the rows is its
 // predicted end-of-step velocity (x_next - x_n) / h, whatever its method; several rows of one particle
@@ -52,20 +61,25 @@ public:
     void finish(RigidSystem& sys, Real h) override;
 
     /// After the rigid solve, before the soft one: gives the soft particles the velocity the rows gave
-    /// them since the last hand-over (SoftSystem::change_predicted_velocity).
-    void hand_to_soft_prediction(Real h);
+    /// them since the last hand-over (SoftSystem::change_predicted_velocity); a whole body's particles take
+    /// the rows' velocity and their position `remaining` seconds on (what the rigid solver has still to
+    /// integrate: RigidSystem::unintegrated_time()).
+    void hand_to_soft_prediction(Real h, Real remaining);
     /// After the soft solve: the rows' particles take the soft system's velocities (what its own solve
     /// and contact pass did to them).
     void take_soft_velocities();
     /// One more pass over the rows on the system's velocity arrays (an exchange iteration after the soft
     /// solve), then the particles' changes handed to the soft velocities.
     void exchange_pass(RigidSystem& sys);
-    bool empty() const { return rows_.empty(); }
+    bool empty() const { return rows_.empty() && particles_.empty(); }
     /// At the start of a step: last step's rows and pushes dropped (their bodies may be gone), so nothing
     /// stale is handed on if the rigid solver does not prepare this step. The warm-start impulses stay.
     void reset() {
         particles_.clear();
         rows_.clear();
+        spring_ends_.clear();
+        attach_rows_.clear();
+        whole_bodies_.clear();
         pushes_.clear();
         push_parts_left_ = 0;
     }
@@ -89,6 +103,27 @@ private:
         Real inv_mass = 0;
         Vec3 v = Vec3::Zero();       ///< velocity in the rows
         Vec3 v_handed = Vec3::Zero();///< velocity the soft system last took from (or gave to) the rows
+        Vec3 x = Vec3::Zero();       ///< position, moved with the rigid solver's (sub-)steps (whole bodies' links read it)
+        bool whole = false;          ///< of a body solved here (one-solver)
+        Vec3 gravity_part = Vec3::Zero();  ///< whole bodies: the gravity of one sub-step, h_sub g (m/s)
+        Vec3 v_ref = Vec3::Zero();   ///< whole bodies: the (sub-)step's velocity before any spring or row acted
+        Vec3 gravity_shortfall = Vec3::Zero();  ///< whole bodies: the sub-step's gravity the sweep's start leaves out
+        Vec3 ext = Vec3::Zero();     ///< whole bodies: impulses from contact rows and the soft contact pass since then
+        std::uint32_t ends_begin = 0, ends_end = 0, ends_fill = 0;  ///< its springs in spring_ends_
+        std::int32_t attach = -1;    ///< into attach_rows_, or -1
+    };
+    struct AttachRow {  ///< one-solver: an attached particle whose block carries its body's share
+        std::uint32_t particle = 0;  ///< into particles_
+        std::uint32_t rigid = 0;
+        Vec3 arm = Vec3::Zero();     ///< the point - the body's centre of mass
+        Mat3 share = Mat3::Zero();   ///< K^-1, K = w_B I - [arm]x I_B^-1 [arm]x (kg)
+        Real inv_mb = 0;
+        Mat3 inv_inertia = Mat3::Zero();
+        Vec3 total = Vec3::Zero();   ///< impulse given to the particle over the step, for the report
+    };
+    struct SpringEnd {  ///< a spring seen from one of its particles
+        std::uint32_t other = 0;     ///< into particles_
+        Real rest = 1, k = 0, c = 0; ///< m, N/m, N s/m
     };
     struct Row {
         std::uint32_t particle = 0;  ///< into particles_
@@ -105,6 +140,12 @@ private:
         Vec3 total = Vec3::Zero();   ///< impulse given to the particle over the step (N s)
     };
     void build(RigidSystem& sys, Real h);
+    /// One-solver: every particle of soft body `slot` and its links (particle_of_ maps them).
+    void add_whole_body(std::uint32_t slot, const SoftBody& b, Real h);
+    void solve_springs(const BodyVelocities& vel);
+    void add_attachment_rows(std::uint32_t slot, const SoftBody& b, std::uint32_t base);
+    /// Adds dv to the soft particle's velocity (and to a whole body's position, over `moves` seconds).
+    void give_soft_velocity(Particle& p, const Vec3& dv, Real moves);
     /// Gives the queued pushes' next share to the bodies (once per sub-step).
     void apply_pushes(const BodyVelocities& vel);
     void apply(Row& r, Particle& p, const BodyVelocities& vel, const Vec3& impulse) const;
@@ -117,9 +158,23 @@ private:
     const CouplingSettings& settings_;
     std::vector<Particle> particles_;
     std::vector<Row> rows_;
+    std::vector<SpringEnd> spring_ends_;
+    std::vector<AttachRow> attach_rows_;
+    struct WholeBody {
+        std::uint32_t begin = 0, end = 0;  ///< its particles in particles_
+        Real mass = 0;                     ///< of its free particles (kg)
+        bool held = false;                 ///< some particle pinned or kinematically attached
+    };
+    std::vector<WholeBody> whole_bodies_;
+    RigidSystem* sys_ = nullptr;  ///< the system of the last prepare()
+    std::vector<std::vector<Vec3>> previous_v_;  ///< per soft slot: its velocities at the last step's start
+    std::vector<std::uint32_t> degree_;  ///< scratch of add_whole_body
+    bool springs_active_ = true;         ///< a (sub-)step is still to be integrated
     std::vector<std::int32_t> particle_of_;  ///< scratch of build(): a soft body's particle -> particles_
     RowStep step_;
     Real h_ = 0;  ///< the step's length (the rows' prediction spans it)
+    int substeps_done_ = 0;  ///< positions_advanced calls since prepare
+    Real remaining_ = 0;  ///< at the hand-over: the time the rigid solver had still to integrate
     // Warm starting across steps: last step's rows by key (sorted), with their accumulated impulses.
     struct Kept {
         std::uint64_t key;

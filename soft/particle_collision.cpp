@@ -125,7 +125,7 @@ int ParticleCollision::project_positions(SoftBody& b, Real h) {
 
 void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out) {
     const Real r = b.def.thickness;
-    const bool position_friction = soft_method_stages(b.def.method).position_friction;  // project_positions
+    const bool position_friction = soft_stages_of(b).position_friction;  // project_positions
     for (const Plane& pl : planes_) {
         const Collider& col = (*colliders_)[pl.collider];
         const std::uint32_t i = pl.particle;

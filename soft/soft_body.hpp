@@ -174,6 +174,9 @@ struct SoftBody {
     /// the impulse (N s) holding the attached particle on its target took in the last solve (implicit
     /// Euler fills it), whose opposite a hybrid or interleaved layer sends back to the rigid body.
     std::vector<Vec3> attachment_impulse;
+    /// Set by a coupling layer before the step (one-solver coupling): the body's links are rows of the rigid
+    /// solver this step, and its method only predicts (soft/soft_methods.hpp, soft_stages_of).
+    bool solved_by_rows = false;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

@@ -20,6 +20,19 @@ void solve_fast_mass_spring_stage(SoftBody& b, Real h, ParticleCollision*) {
     if (!b.lra.empty()) apply_long_range_attachments(b);
 }
 
+// A body solved by a coupling layer's rows inside the rigid solver (SoftBody::solved_by_rows): its method
+// only predicts, with every force explicit (Verlet's prediction: gravity, drag, pressure, external forces;
+// its links are rows there), and the velocity the rows start from is the predicted one.
+void predict_for_rows(SoftBody& b, Real h) {
+    predict_verlet(b, h);
+    Particles& p = b.p;
+    const Real inv_h = Real(1) / h;
+    for (std::size_t i = 0; i < p.size(); ++i)
+        if (p.inv_mass[i] != 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
+}
+
+const SoftMethodStages kRowsStages = {predict_for_rows, solve_long_range_only, false, nullptr};
+
 // Indexed by SoftMethod.
 const SoftMethodStages kStages[] = {
     /* Verlet */ {predict_verlet, relax_verlet, true, nullptr},
@@ -36,6 +49,10 @@ const SoftMethodStages& soft_method_stages(SoftMethod m) {
     const auto i = std::size_t(m);
     if (i >= std::size_t(SoftMethod::Count)) throw SoftError("soft method " + std::to_string(i) + " is unknown");
     return kStages[i];
+}
+
+const SoftMethodStages& soft_stages_of(const SoftBody& b) {
+    return b.solved_by_rows ? kRowsStages : soft_method_stages(b.def.method);
 }
 
 }  // namespace sinew

@@ -33,5 +33,8 @@ struct SoftMethodStages {
 
 /// The row of method m (throws SoftError for a value outside the enum).
 const SoftMethodStages& soft_method_stages(SoftMethod m);
+/// The stages body b runs this step: its method's, or, while a coupling layer solves it in the rigid
+/// solver (SoftBody::solved_by_rows), an explicit prediction and the contact pass only.
+const SoftMethodStages& soft_stages_of(const SoftBody& b);
 
 }  // namespace sinew

@@ -334,7 +334,7 @@ void SoftSystem::begin_step(SoftBody& b, Real h) {
     Particles& p = b.p;
     p.x_next.resize(p.size());  // no-op after the first step
     p.v_solved.resize(p.size());
-    soft_method_stages(b.def.method).integrate_velocities(b, h);
+    soft_stages_of(b).integrate_velocities(b, h);
     // The method wrote its prediction over x (x_prev = x_n): set it aside, positions stay x_n.
     p.x_next.swap(p.x);
     p.x = p.x_prev;
@@ -364,7 +364,7 @@ void SoftSystem::solve_velocities(Real h) {
         // Attached particles onto their targets again: a coupling layer may have refined the frames.
         follow_attachments(b, h, settings_.sleep_velocity);
         ParticleCollision* collision = collision_[s].empty() ? nullptr : &collision_[s];
-        soft_method_stages(b.def.method).solve_constraints(b, h, collision);
+        soft_stages_of(b).solve_constraints(b, h, collision);
         restore_attachment_velocities(b);
         const std::size_t first_contact = contacts_.size();
         if (collision) collision->finish(b, s, h, contacts_);
@@ -383,7 +383,7 @@ const ParticleCollision* SoftSystem::collision(std::uint32_t slot) const {
 void SoftSystem::change_predicted_velocity(std::uint32_t slot, std::uint32_t i, const Vec3& dv, Real h) {
     SoftBody& b = bodies_[slot];
     if (b.p.inv_mass[i] == 0) return;  // pinned or attached: its target decides
-    const SoftMethodStages& m = soft_method_stages(b.def.method);
+    const SoftMethodStages& m = soft_stages_of(b);
     if (m.shift_prediction) {
         m.shift_prediction(b, i, dv, h);
         return;

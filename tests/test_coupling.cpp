@@ -44,8 +44,8 @@ namespace {
 
 // Linear momentum before and after 60 steps, the cloth thrown at the box under two-way coupling with
 // the given rigid solver; returns the relative change.
-Real momentum_change(const char* method, RigidSolverKind solver, Real& box_speed) {
-    SceneDesc d = parse_scene_string(thrown_cloth_scene("two-way", method), "thrown-cloth");
+Real momentum_change(const char* method, RigidSolverKind solver, Real& box_speed, const char* strategy = "two-way") {
+    SceneDesc d = parse_scene_string(thrown_cloth_scene(strategy, method), "thrown-cloth");
     d.settings.rigid.solver = solver;
     auto w = build_world(d);
     const Vec3 p0 = total_momentum(*w);  // 0.5 kg at 3 m/s: 1.5 N s along -z
@@ -69,6 +69,20 @@ TEST_CASE("two-way coupling conserves linear momentum when a cloth hits a free b
             Real box_speed = 0;
             CHECK(momentum_change(method, solver, box_speed) <= tol);
             CHECK(box_speed > Real(0.2));  // struck: the box took a good share of the cloth's momentum
+        }
+}
+
+TEST_CASE("one-solver: the cloth swept in the rigid solver and the box it strikes keep their momentum", "[coupling]") {
+    // The rows exchange equal and opposite impulses, and after each sweep a uniform shift per body puts
+    // back what the unconverged springs did to its momentum (without it: 11% lost in a second).
+    // Measured at most 2.5e-5 in float; bounds as for two-way.
+    const Real tol = sizeof(Real) == 4 ? Real(1e-4) : Real(1e-6);
+    for (const char* method : {"implicit", "semi-implicit", "fast-ms"})
+        for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
+            INFO(method << " under " << rigid_solver_name(solver));
+            Real box_speed = 0;
+            CHECK(momentum_change(method, solver, box_speed, "one-solver") <= tol);
+            CHECK(box_speed > Real(0.2));
         }
 }
 
@@ -279,7 +293,7 @@ TEST_CASE("every coupling scene runs under every strategy", "[coupling]") {
     // the strategy the run reports is the one asked for.
     for (const char* name : {"ball-on-trampoline", "box-on-soft-block", "basketball-net", "cloth-on-arm", "rope-tow"})
         for (CouplingStrategy s : {CouplingStrategy::OneWay, CouplingStrategy::TwoWay, CouplingStrategy::Hybrid,
-                                   CouplingStrategy::Interleaved}) {
+                                   CouplingStrategy::Interleaved, CouplingStrategy::OneSolver}) {
             INFO(name << " under " << coupling_strategy_name(s));
             SceneDesc d = parse_scene_file(scene_path((std::string(name) + ".json").c_str()));
             d.coupling.settings.strategy = s;
@@ -395,8 +409,52 @@ TEST_CASE("rope-tow: two-way attachments tow the crate at mass ratios 1:1 to 1:1
     }
 }
 
+TEST_CASE("one-solver: a cloth swept in the rigid solver hangs where implicit Euler's converged solve hangs it", "[coupling]") {
+    // A 2 m, 0.5 kg cloth of 10 x 10 nodes (4000 N/m) pinned at its corners, no rigid body near: under
+    // one-solver its springs are swept particle by particle inside the rigid solver's passes (block
+    // Gauss-Seidel on the same linearised implicit Euler system the implicit method solves by CG, here
+    // converged: 400 iterations at 1e-6). A resting state is a fixed point of the sweep (it starts from
+    // the last motion), so once the swing has died out both hang alike: measured identical to 0.1 mm under
+    // split impulses and the Newtonian solver; the soft step, whose four sub-steps get two sweeps each,
+    // still moves at 3 cm/s after 5 s and hangs 0.5 mm higher. Bounds: 1 mm and 3 mm.
+    const auto hang = [](const char* strategy, const char* solver) {
+        const std::string text = std::string(R"({"format": "sinew-scene", "version": 1,
+          "settings": {"sleeping": {"enabled": false}, "solver": {"kind": ")") + solver + R"("}},
+          "soft_bodies": [{"name": "c", "builder": "cloth", "nodes": [10, 10], "origin": [-1, 1, -1],
+             "edge_u": [2, 0, 0], "edge_v": [0, 0, 2], "shear": true, "bend": false, "mass": 0.5,
+             "method": "implicit", "pinned_nodes": [[0, 0], [9, 0], [0, 9], [9, 9]],
+             "links": {"stretch": 4000, "shear": 400, "damping": 2}, "solver": {"iterations": 400, "cg_tolerance": 1e-6}}],
+          "coupling": {"strategy": ")" + strategy + R"("}})";
+        auto w = build_world(parse_scene_string(text, "hanging-cloth"));
+        for (int s = 0; s < 300; ++s) w->step();
+        const Particles& p = w->soft().body(w->soft().bodies()[0]).p;
+        double low = 1e9;
+        for (const Vec3& x : p.x) low = std::min(low, double(x.y()));
+        return low;
+    };
+    const double reference = hang("two-way", "split_impulse");
+    CHECK(reference == Approx(0.8724).margin(2e-3));  // 13 cm of sag, as measured
+    CHECK(hang("one-solver", "split_impulse") == Approx(reference).margin(1e-3));
+    CHECK(hang("one-solver", "newton") == Approx(reference).margin(1e-3));
+    CHECK(hang("one-solver", "soft_step") == Approx(reference).margin(3e-3));
+}
+
+TEST_CASE("one-solver: the rope tows the heavy crate in the rigid solver's loop; the light one diverges", "[coupling]") {
+    // The rope's attached end carries the crate's point inertia in its block of the sweep. At 1:1000 the
+    // crate follows within the issue's 2% (measured 1.3%); at 1:1 the rope-crate mode (omega = 707 rad/s,
+    // h omega = 12) converges too slowly for the solver's passes and the step diverges: the known failure
+    // of one iterative solver at large stiffness over mass, which two-way's implicit solve does not have.
+    const TowRun heavy = tow(100, CouplingStrategy::OneSolver);
+    REQUIRE(heavy.finite);
+    CHECK(heavy.max_span < 1.02 * 2.0);
+    CHECK(heavy.crate_moved > 5.0 - 0.02 * 2.0);
+    const TowRun light = tow(0.1, CouplingStrategy::OneSolver);
+    CHECK((!light.finite || light.max_span > 4.0));
+}
+
 TEST_CASE("bodies destroyed between steps leave every strategy's layer valid", "[coupling][errors]") {
-    for (CouplingStrategy s : {CouplingStrategy::TwoWay, CouplingStrategy::Hybrid, CouplingStrategy::Interleaved}) {
+    for (CouplingStrategy s : {CouplingStrategy::TwoWay, CouplingStrategy::Hybrid, CouplingStrategy::Interleaved,
+                              CouplingStrategy::OneSolver}) {
         INFO(coupling_strategy_name(s));
         SceneDesc d = parse_scene_file(scene_path("ball-on-trampoline.json"));
         d.coupling.settings.strategy = s;

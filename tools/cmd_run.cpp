@@ -89,7 +89,7 @@ int run(const std::vector<std::string>& args) {
         scene.coupling.settings.strategy = *opt.coupling;
         scene.coupling.pairs.clear();
         // Sub-steps are one-way's and hybrid's; the others step both systems together.
-        if (*opt.coupling == CouplingStrategy::TwoWay || *opt.coupling == CouplingStrategy::Interleaved)
+        if (*opt.coupling != CouplingStrategy::OneWay && *opt.coupling != CouplingStrategy::Hybrid)
             scene.coupling.settings.substeps = 1;
     }
 
@@ -163,8 +163,9 @@ const Command run_command = {
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
-    "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid or interleaved (overrides the\n"
-    "                  scene's \"coupling\" section, its pairs included; docs/coupling.md)\n"
+    "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid, interleaved or\n"
+    "                  one-solver (overrides the scene's \"coupling\" section, its pairs included;\n"
+    "                  docs/coupling.md)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md)\n"
     "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"

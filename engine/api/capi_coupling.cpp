@@ -17,6 +17,7 @@ bool strategy_of(int c, CouplingStrategy& out) {
         case SINEW_COUPLING_TWO_WAY: out = CouplingStrategy::TwoWay; return true;
         case SINEW_COUPLING_HYBRID: out = CouplingStrategy::Hybrid; return true;
         case SINEW_COUPLING_INTERLEAVED: out = CouplingStrategy::Interleaved; return true;
+        case SINEW_COUPLING_ONE_SOLVER: out = CouplingStrategy::OneSolver; return true;
         default: return false;
     }
 }

@@ -446,7 +446,8 @@ typedef enum sinew_coupling {
     SINEW_COUPLING_ONE_WAY = 0, /* rigid bodies push soft ones, nothing comes back (default) */
     SINEW_COUPLING_TWO_WAY = 1, /* both ways: particles in the rigid solve, rigid inertia in implicit soft solves */
     SINEW_COUPLING_HYBRID = 2,  /* one-way contacts, `gain` times their impulses sent back to the rigid body */
-    SINEW_COUPLING_INTERLEAVED = 3 /* Baraff & Witkin 1997: alternate steps, forces a step late, repair */
+    SINEW_COUPLING_INTERLEAVED = 3, /* Baraff & Witkin 1997: alternate steps, forces a step late, repair */
+    SINEW_COUPLING_ONE_SOLVER = 4   /* two-way in one solver: the soft body's springs solved in the rigid solver's loop */
 } sinew_coupling;
 /** The world's coupling strategy from the next step, for every pair no override names; `gain` in [0, 1]
  *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */

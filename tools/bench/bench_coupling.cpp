@@ -60,8 +60,8 @@ CouplingRun run_one(const SceneDesc& scene, CouplingStrategy strategy, double se
     d.coupling.settings.strategy = strategy;
     d.coupling.pairs.clear();
     if (substeps > 0) d.coupling.settings.substeps = substeps;
-    if (strategy == CouplingStrategy::TwoWay || strategy == CouplingStrategy::Interleaved)
-        d.coupling.settings.substeps = 1;  // they step both systems together
+    if (strategy != CouplingStrategy::OneWay && strategy != CouplingStrategy::Hybrid)
+        d.coupling.settings.substeps = 1;  // the others step both systems together
     d.settings.time_step /= Real(divide);
     const int steps = seconds > 0 ? int(std::lround(seconds / double(d.settings.time_step))) : scene.steps;
     // Awake throughout: a sleeping pair costs nothing and exchanges nothing, which would measure neither.
@@ -209,7 +209,7 @@ int cmd_bench_coupling(const std::vector<std::string>& args) {
         const int n = steps > 0 ? steps : scene.steps;
         double one_way_ms = 0;
         for (CouplingStrategy s : {CouplingStrategy::OneWay, CouplingStrategy::TwoWay, CouplingStrategy::Hybrid,
-                                   CouplingStrategy::Interleaved}) {
+                                   CouplingStrategy::Interleaved, CouplingStrategy::OneSolver}) {
             CouplingRun r = run_one(scene, s, n * double(scene.settings.time_step), 0, 1, BenchClock::ThreadCpu);
             if (s == CouplingStrategy::OneWay) one_way_ms = r.ms_per_step_median;
             r.ratio_to_one_way = one_way_ms > 0 ? r.ms_per_step_median / one_way_ms : 1;
