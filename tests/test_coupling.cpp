@@ -6,6 +6,8 @@
 #include <cmath>
 #include <string>
 
+#include <Eigen/Dense>
+
 #include "engine/world/scene.hpp"
 
 using namespace sinew;
@@ -184,6 +186,105 @@ TEST_CASE("box-on-soft-block: the FEM block carries the box at the same depth un
     }
     Real sink = 0;
     CHECK(settle(RigidSolverKind::SoftStep, CouplingStrategy::OneWay, 1, sink, force) < Real(0.25));  // on the ground
+}
+
+namespace {
+
+// The static equilibrium of box-on-soft-block's FEM block under a rigid box of weight `weight`, solved
+// directly and independently of the engine's FEM code: linear elasticity (small strain, the scene's E and
+// nu), K_ab = V (lambda g_a g_b^T + mu g_b g_a^T + mu (g_a . g_b) I) per tet assembled densely, gravity
+// on the engine's lumped masses, the clamped base fixed, and the top nodes under the box moved down
+// together by d (a rigid, level box; they stick, as friction holds them): d is where the nodes push
+// back with the box's weight (the reaction is linear in d: two solves).
+double static_sink(const SceneDesc& scene, const World& w, double weight) {
+    const SoftBody& b = w.soft().body(w.soft().bodies()[0]);
+    const std::vector<std::uint32_t>& tets = scene.soft_bodies[0].def.tets;
+    const std::vector<Vec3>& x = scene.soft_bodies[0].def.positions;
+    const FemMaterial& mat = scene.soft_bodies[0].def.fem;
+    const double lambda = double(mat.lame_lambda()), mu = double(mat.lame_mu());
+    const int n = int(x.size()), dofs = 3 * n;
+    Eigen::MatrixXd k = Eigen::MatrixXd::Zero(dofs, dofs);
+    for (std::size_t t = 0; t < tets.size(); t += 4) {
+        const std::uint32_t* id = &tets[t];
+        Eigen::Matrix3d dm;
+        for (int c = 0; c < 3; ++c) dm.col(c) = (x[id[c + 1]] - x[id[0]]).cast<double>();
+        const double volume = dm.determinant() / 6;
+        const Eigen::Matrix3d inv = dm.inverse();
+        Eigen::Vector3d g[4];
+        for (int c = 0; c < 3; ++c) g[c + 1] = inv.row(c).transpose();
+        g[0] = -(g[1] + g[2] + g[3]);
+        for (int a = 0; a < 4; ++a)
+            for (int c = 0; c < 4; ++c)
+                k.block<3, 3>(3 * int(id[a]), 3 * int(id[c])) +=
+                    volume * (lambda * g[a] * g[c].transpose() + mu * g[c] * g[a].transpose() +
+                              mu * g[a].dot(g[c]) * Eigen::Matrix3d::Identity());
+    }
+    enum { Free, Fixed, Pressed };
+    std::vector<int> kind(std::size_t(dofs), Free);
+    for (int i = 0; i < n; ++i) {
+        const bool under_box = x[i].y() > Real(0.39) && std::abs(x[i].x()) < Real(0.2) && std::abs(x[i].z()) < Real(0.2);
+        if (b.p.inv_mass[std::size_t(i)] == 0) kind[3 * i] = kind[3 * i + 1] = kind[3 * i + 2] = Fixed;
+        if (under_box) kind[3 * i] = kind[3 * i + 2] = Fixed, kind[3 * i + 1] = Pressed;
+    }
+    Eigen::VectorXd gravity = Eigen::VectorXd::Zero(dofs);
+    for (int i = 0; i < n; ++i) gravity[3 * i + 1] = -9.81 * double(b.p.mass[std::size_t(i)]);
+    std::vector<int> free;
+    for (int q = 0; q < dofs; ++q)
+        if (kind[std::size_t(q)] == Free) free.push_back(q);
+    Eigen::MatrixXd kff(free.size(), free.size());
+    for (std::size_t a = 0; a < free.size(); ++a)
+        for (std::size_t c = 0; c < free.size(); ++c) kff(Eigen::Index(a), Eigen::Index(c)) = k(free[a], free[c]);
+    const Eigen::LDLT<Eigen::MatrixXd> solver(kff);
+    const auto push_back_force = [&](double d) {  // what the pressed nodes push up with, down by d
+        Eigen::VectorXd u = Eigen::VectorXd::Zero(dofs);
+        for (int q = 0; q < dofs; ++q)
+            if (kind[std::size_t(q)] == Pressed) u[q] = -d;
+        const Eigen::VectorXd ku = k * u;
+        Eigen::VectorXd rhs(free.size());
+        for (std::size_t a = 0; a < free.size(); ++a) rhs[Eigen::Index(a)] = gravity[free[a]] - ku[free[a]];
+        const Eigen::VectorXd uf = solver.solve(rhs);
+        for (std::size_t a = 0; a < free.size(); ++a) u[free[a]] = uf[Eigen::Index(a)];
+        const Eigen::VectorXd reaction = k * u - gravity;
+        double up = 0;
+        for (int q = 0; q < dofs; ++q)
+            if (kind[std::size_t(q)] == Pressed) up -= reaction[q];
+        return up;
+    };
+    const double at0 = push_back_force(0), slope = push_back_force(1) - at0;
+    return (weight - at0) / slope;
+}
+
+}  // namespace
+
+TEST_CASE("box-on-soft-block: the block's top under the box sinks to the converged static solve's depth", "[coupling]") {
+    // The static solve (static_sink above, a rigid level box, linear elasticity) puts the four top nodes
+    // under the box 2.34 mm down. Two-way coupling, settled for 1.5 s: their mean depth 2.35-2.36 mm under
+    // every rigid solver (0.4-0.9%), within the issue's 2%. The deepest of them sinks 2.44 mm: the box's
+    // inertia is shared evenly over the particles it touches, which a static solve with equal loads of
+    // Mg/4 reproduces exactly (2.44 and 2.27 mm), where a rigid box would press the stiffer nodes harder
+    // (docs/coupling.md, open).
+    const SceneDesc scene = parse_scene_file(scene_path("box-on-soft-block.json"));
+    double expected = 0;
+    for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
+        INFO(rigid_solver_name(solver));
+        SceneDesc d = scene;
+        d.settings.rigid.solver = solver;
+        d.settings.rigid.sleeping = false;
+        auto w = build_world(d);
+        if (expected == 0) expected = static_sink(d, *w, 20 * 9.81);
+        for (int k = 0; k < 90; ++k) w->step();
+        double mean = 0;
+        int count = 0;
+        for (const Vec3& x : w->soft().body(w->soft().bodies()[0]).p.x)
+            if (std::abs(x.x()) < Real(0.15) && std::abs(x.z()) < Real(0.15) && x.y() > Real(0.3)) {
+                mean += double(x.y());
+                ++count;
+            }
+        REQUIRE(count == 4);
+        mean /= count;
+        CHECK(expected == Approx(0.00234).epsilon(0.01));
+        CHECK(0.4 - mean == Approx(expected).epsilon(0.02));
+    }
 }
 
 TEST_CASE("one-way coupling leaves the rigid body's path unchanged; two-way does not", "[coupling]") {
