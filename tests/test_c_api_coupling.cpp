@@ -3,6 +3,7 @@
 // contact events carry its weight; bad strategies, gains and handles are refused with nothing changed.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstring>
 
 #include "tests/test_c_api_util.hpp"
@@ -98,6 +99,23 @@ TEST_CASE("C API: one-way by default lets the ball through; a pair override make
     sinew_world_destroy(t.world);
 }
 
+TEST_CASE("C API: every coupling strategy is accepted, read back and stepped", "[capi][coupling]") {
+    for (sinew_coupling s : {SINEW_COUPLING_ONE_WAY, SINEW_COUPLING_TWO_WAY, SINEW_COUPLING_HYBRID,
+                             SINEW_COUPLING_INTERLEAVED, SINEW_COUPLING_ONE_SOLVER}) {
+        INFO(int(s));
+        Trampoline t = make_trampoline();
+        REQUIRE(sinew_world_set_coupling(t.world, s, 1) == SINEW_OK);
+        sinew_coupling c = SINEW_COUPLING_HYBRID;
+        REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
+        CHECK(c == s);
+        for (int k = 0; k < 30; ++k) REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
+        sinew_transform xf;
+        REQUIRE(sinew_body_get_transform(t.ball, &xf) == SINEW_OK);
+        CHECK(std::isfinite(xf.p.y));
+        sinew_world_destroy(t.world);
+    }
+}
+
 TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][coupling][errors]") {
     Trampoline t = make_trampoline();
     // A C caller can pass any int as the enum; in C++ loading an out-of-range enum is UB, so the call
@@ -107,6 +125,7 @@ TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][
         reinterpret_cast<SetCouplingAsInt>(reinterpret_cast<void (*)()>(&sinew_world_set_coupling));
     CHECK(set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "not a sinew_coupling"));
+    CHECK(set_coupling_int(t.world, 5, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
     CHECK(sinew_world_set_coupling(t.world, SINEW_COUPLING_HYBRID, 2.0f) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "gain"));
     sinew_coupling c;
