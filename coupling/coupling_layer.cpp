@@ -83,7 +83,8 @@ void CouplingLayer::begin_step(Real h) {
         // bodies (their elements are not swept there) and Verlet bodies (hard links: as rows they converged
         // too slowly without warm starting and diverged with it) are coupled as under two-way.
         b.solved_by_rows = one_solver && !b.fem && b.def.method != SoftMethod::Verlet;
-        two_way = two_way || (one_solver && !b.solved_by_rows);
+        two_way = (two_way || one_solver) && !b.solved_by_rows;  // a body solved in the rigid solver has no shares
+        if (b.solved_by_rows) b.contact_share_impulse.clear();
         b.hold_contacts = two_way;
         if (two_way && b.awake) assign_shares(b, id, s, h);
         else b.contact_share.clear();
@@ -346,6 +347,22 @@ void CouplingLayer::collect_hybrid_reaction() {
         // In the body's frame at the pose the sub-step met it; applied next step where the body is then.
         late_impulses_.push_back({c.owner, rid.generation, c.xf.apply_inverse(pc.point), j});
         sent_back_.push_back({c.owner, pc.body, pc.particle, pc.point, pc.normal, j});
+    }
+    // And what the sub-step's hybrid attachments took.
+    for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
+        if (!soft_.slot_alive(s)) continue;
+        const SoftBody& b = soft_.slot_body(s);
+        if (!b.stepping || b.attachment_impulse.size() != b.attachments.size()) continue;
+        for (std::size_t k = 0; k < b.attachments.size(); ++k) {
+            const Attachment& a = b.attachments[k];
+            const BodyId rid = unpack_body_id(a.target);
+            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            if (coupling_strategy_of(settings_, soft_.id_of_slot(s), rid) != CouplingStrategy::Hybrid) continue;
+            const Vec3 j = -settings_.gain * b.attachment_impulse[k];
+            if (j.isZero()) continue;
+            late_impulses_.push_back({rid.index, rid.generation, a.local_point, j});
+            sent_back_.push_back({rid.index, s, a.particle, rigid_.slot_transform(rid.index).apply(a.local_point), Vec3::Zero(), j});
+        }
     }
 }
 

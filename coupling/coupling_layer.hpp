@@ -73,7 +73,7 @@ private:
     void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
     bool any(CouplingStrategy s) const;
     /// Body b carries shares of rigid bodies coupled to it by `s`: two-way, or one-solver for a body the
-    /// rigid solver cannot take whole (FEM).
+    /// rigid solver does not take whole (FEM and Verlet bodies).
     static bool shares_with(const SoftBody& b, CouplingStrategy s) {
         return s == CouplingStrategy::TwoWay || (s == CouplingStrategy::OneSolver && !b.solved_by_rows);
     }

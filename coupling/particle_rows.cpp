@@ -19,7 +19,7 @@ constexpr Real kSlop = Real(0.001);
 constexpr Real kMinLinkLength = Real(1e-9);
 }  // namespace
 
-void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h) {
+void ParticleRows::add_whole_body(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, Real h) {
     const Real inv_h = 1 / h;
     const auto base = std::uint32_t(particles_.size());
     // A sub-stepping solver adds gravity per sub-step, to the particles as to the rigid bodies: the
@@ -30,7 +30,7 @@ void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h)
     const Vec3 g_held = Real(parts - 1) * g_part;
     const std::size_t n = b.p.size();
     // Springs by particle (both ends list each), for the block Gauss-Seidel sweep.
-    degree_.assign(n + 1, 0);
+    degree_.assign(n, 0);
     for (const Link& l : b.links) {
         ++degree_[l.a];
         ++degree_[l.b];
@@ -43,8 +43,12 @@ void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h)
     // 20-segment rope came to rest 3.3 cm low after 10 iterations a step (each step's sweep had to
     // carry the whole weight up the rope again).
     if (previous_v_.size() <= slot) previous_v_.resize(slot + 1);
-    std::vector<Vec3>& previous = previous_v_[slot];
-    const bool known = previous.size() == n;
+    Previous& last = previous_v_[slot];
+    const std::uint64_t stamp = (std::uint64_t(soft_.id_of_slot(slot).generation) << 32) | std::uint32_t(step_count_);
+    // Only the same body's velocities from the step just before (not another body's in a reused slot, nor
+    // those of a step it slept through or was not swept in).
+    const bool known = last.v.size() == n && last.stamp + 1 == stamp;
+    std::vector<Vec3>& previous = last.v;
     const Real g_norm = b.gravity.norm();
     const Vec3 g_dir = g_norm > 0 ? Vec3(b.gravity / g_norm) : Vec3::Zero();
     for (std::uint32_t i = 0; i < n; ++i) {
@@ -61,7 +65,9 @@ void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h)
             p.gravity_shortfall = (step_.h * (g_norm - a)) * g_dir;
             p.v -= p.gravity_shortfall;
         }
-        p.x = b.p.x[i];
+        // A held particle was placed at its target's end-of-step pose; the sweep starts where the target is
+        // now and moves it on with the target's velocity (positions_advanced), as the free ones move.
+        p.x = p.inv_mass != 0 ? b.p.x[i] : Vec3(b.p.x[i] - h * b.p.v[i]);
         p.whole = true;
         p.gravity_part = p.inv_mass != 0 ? g_part : Vec3::Zero();
         p.ends_begin = p.ends_fill = next;
@@ -71,7 +77,8 @@ void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h)
         particles_.push_back(p);
     }
     previous.assign(b.p.v.begin(), b.p.v.end());
-    add_attachment_rows(slot, b, base);
+    last.stamp = stamp;
+    add_attachment_rows(sys, slot, b, base);
     WholeBody wb;
     wb.begin = base;
     wb.end = base + std::uint32_t(n);
@@ -91,29 +98,34 @@ void ParticleRows::add_whole_body(std::uint32_t slot, const SoftBody& b, Real h)
     for (std::uint32_t i = 0; i < n; ++i) particles_[base + i].ends_end = particles_[base + i].ends_fill;
 }
 
-void ParticleRows::add_attachment_rows(std::uint32_t slot, const SoftBody& b, std::uint32_t base) {
+void ParticleRows::add_attachment_rows(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, std::uint32_t base) {
     // An attachment to an awake dynamic body: the particle is free here with its own mass, and its block in
     // the springs' sweep carries the body's effective mass at the point, K^-1 (solve_springs), so the body
     // and the soft body move each other in the same loop. A point row (a ball joint between the particle
     // and the point) beside the sweep was tried first: with the row's effective mass from the particle's
     // 1/m, while the stiff springs hold the particle far harder, a 0.1 kg crate on a 1e6 N/m rope
     // diverged within 30 steps.
-    const RigidSystem::State& st = sys_->state();
+    const RigidSystem::State& st = sys.state();
     const SoftBodyId sid = soft_.id_of_slot(slot);
     for (const Attachment& a : b.attachments) {
         if (!a.frame_valid) continue;
         const BodyId rid = unpack_body_id(a.target);
-        if (!sys_->valid(rid) || sys_->slot_type(rid.index) != BodyType::Dynamic || st.inv_mass[rid.index] == 0) continue;
-        if (coupling_strategy_of(settings_, sid, rid) != CouplingStrategy::OneSolver) continue;
+        if (!sys.valid(rid) || sys.slot_type(rid.index) != BodyType::Dynamic || st.inv_mass[rid.index] == 0) continue;
+        // The body is solved here (one-solver): a pair that asks for two-way gets the same merge.
+        const CouplingStrategy strategy = coupling_strategy_of(settings_, sid, rid);
+        if (strategy != CouplingStrategy::OneSolver && strategy != CouplingStrategy::TwoWay) continue;
         Particle& p = particles_[base + a.particle];
         const std::uint32_t o = rid.index;
         AttachRow r;
         r.particle = base + a.particle;
         r.rigid = o;
-        r.arm = sys_->slot_transform(o).apply(a.local_point) - st.x[o];
+        r.arm = sys.slot_transform(o).apply(a.local_point) - st.x[o];
         p.inv_mass = 1 / b.p.mass[a.particle];
         p.x = st.x[o] + r.arm;  // where the point is now (the soft system placed it at the step's end)
-        p.gravity_part = b.gravity * step_.h;  // its own weight, as the free particles' (per sub-step)
+        // Its own weight a sub-step at a time, as the free particles', where the rigid solver adds gravity
+        // per sub-step (the soft step); the others have added this step's already to the body's velocity,
+        // which the particle starts from.
+        p.gravity_part = sys.settings().solver == RigidSolverKind::SoftStep ? Vec3(b.gravity * step_.h) : Vec3::Zero();
         p.v = st.v[o] + st.w[o].cross(r.arm) + p.gravity_part;
         p.v_ref = p.v;
         p.v_handed = p.v;
@@ -132,7 +144,7 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
     rows_.clear();
     attach_rows_.clear();
     whole_bodies_.clear();
-    sys_ = &sys;
+    ++step_count_;
     const RigidSystem::State& st = sys.state();
     const std::vector<Collider>& colliders = soft_.colliders();
     const Real inv_h = 1 / h;
@@ -143,7 +155,7 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
         const bool whole = b.solved_by_rows && b.stepping;
         if (!whole && (!col || col->plane_count() == 0)) continue;
         particle_of_.assign(b.p.size(), -1);
-        if (whole) add_whole_body(s, b, h);
+        if (whole) add_whole_body(sys, s, b, h);
         if (!col) continue;
         const SoftBodyId sid = soft_.id_of_slot(s);
         const Real r = b.def.thickness;
@@ -282,7 +294,9 @@ void ParticleRows::apply_pushes(const BodyVelocities& vel) {
 
 void ParticleRows::solve_springs(const BodyVelocities& vel) {
     // Block Gauss-Seidel on the springs' implicit Euler step, linearised at the (sub-)step's positions
-    // (Baraff & Witkin 1998's system, the one implicit Euler solves by CG), a particle at a time as vertex
+    // (Baraff & Witkin 1998's system, which implicit Euler solves by CG; here always backward Euler,
+    // lambda = 1, with the transverse part clamped, i.e. without the body's implicit_lambda and
+    // isotropic_blend), a particle at a time as vertex
     // block descent does (Chen et al. 2024). Particle i's block row is
     //   (m + h c n n^T + h^2 K) dv = J_ext + h (f0 + h K (v_j - v_i) + c n n^T (v_j - v_i)) - m (v - v_ref)
     // summed over its springs, with K the spring's stiffness including its tension's transverse part
@@ -434,14 +448,15 @@ void ParticleRows::positions_advanced(const RigidSystem&, const BodyVelocities& 
 
 void ParticleRows::give_soft_velocity(Particle& p, const Vec3& dv, Real moves) {
     Particles& q = soft_.slot_body(p.soft).p;
+    p.v_handed = p.v;
+    if (q.inv_mass[p.index] == 0) return;  // pinned or attached: its target decides
     q.v[p.index] += dv;
-    if (p.whole && q.inv_mass[p.index] != 0) {
+    if (p.whole) {
         // Solved here: the change moves the position only over the time still to integrate, and not at all
         // after the positions (the soft step's relax pass changes velocities only, as for rigid bodies).
         q.x_next[p.index] += moves * dv;
         q.v_solved[p.index] += dv;
     }
-    p.v_handed = p.v;
 }
 
 void ParticleRows::hand_to_soft_prediction(Real h, Real remaining) {

@@ -141,9 +141,9 @@ private:
     };
     void build(RigidSystem& sys, Real h);
     /// One-solver: every particle of soft body `slot` and its links (particle_of_ maps them).
-    void add_whole_body(std::uint32_t slot, const SoftBody& b, Real h);
+    void add_whole_body(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, Real h);
     void solve_springs(const BodyVelocities& vel);
-    void add_attachment_rows(std::uint32_t slot, const SoftBody& b, std::uint32_t base);
+    void add_attachment_rows(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, std::uint32_t base);
     /// Adds dv to the soft particle's velocity (and to a whole body's position, over `moves` seconds).
     void give_soft_velocity(Particle& p, const Vec3& dv, Real moves);
     /// Gives the queued pushes' next share to the bodies (once per sub-step).
@@ -166,8 +166,12 @@ private:
         bool held = false;                 ///< some particle pinned or kinematically attached
     };
     std::vector<WholeBody> whole_bodies_;
-    RigidSystem* sys_ = nullptr;  ///< the system of the last prepare()
-    std::vector<std::vector<Vec3>> previous_v_;  ///< per soft slot: its velocities at the last step's start
+    struct Previous {
+        std::vector<Vec3> v;     ///< the body's velocities when it was last swept (before its prediction)
+        std::uint64_t stamp = 0; ///< its generation and the step (prepare count) they were taken at
+    };
+    std::vector<Previous> previous_v_;  ///< per soft slot
+    std::uint32_t step_count_ = 0;      ///< prepare() calls
     std::vector<std::uint32_t> degree_;  ///< scratch of add_whole_body
     bool springs_active_ = true;         ///< a (sub-)step is still to be integrated
     std::vector<std::int32_t> particle_of_;  ///< scratch of build(): a soft body's particle -> particles_
