@@ -218,6 +218,7 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
             rows_.push_back(row);
         }
     }
+    assign_contact_shares(st);
 }
 
 void ParticleRows::prepare(RigidSystem& sys, const RowStep& step) {
@@ -310,7 +311,7 @@ void ParticleRows::solve_springs(const BodyVelocities& vel) {
     //    stiff rope overshot and diverged, each block's step unbounded without a line search.
     const Real h = step_.h, h2 = h * h;
     for (Particle& p : particles_) {
-        if (!p.whole || p.inv_mass == 0 || (p.ends_begin == p.ends_end && p.attach < 0)) continue;
+        if (!p.whole || p.inv_mass == 0 || (p.ends_begin == p.ends_end && p.attach < 0 && p.share_row < 0)) continue;
         const Real m = 1 / p.inv_mass;
         Vec3 rhs = p.ext - m * (p.v - p.v_ref);
         Mat3 a = m * Mat3::Identity();
@@ -321,6 +322,11 @@ void ParticleRows::solve_springs(const BodyVelocities& vel) {
             rhs += r.share * (v_point - p.v);
             a += r.share;
         }
+        // A pushing contact's share: the body's velocity at the particle starts the merge.
+        Row* contact = p.share_row >= 0 ? &rows_[std::size_t(p.share_row)] : nullptr;
+        if (contact && contact->lambda_n <= 0) contact = nullptr;
+        Vec3 v_surface = Vec3::Zero();
+        if (contact) v_surface = vel.linear(contact->rigid) + vel.angular(contact->rigid).cross(contact->arm);
         for (std::uint32_t e = p.ends_begin; e < p.ends_end; ++e) {
             const SpringEnd& s = spring_ends_[e];
             const Particle& q = particles_[s.other];
@@ -338,7 +344,30 @@ void ParticleRows::solve_springs(const BodyVelocities& vel) {
             a += (h * s.c + h2 * along) * (n * n.transpose());
             a.diagonal().array() += h2 * transverse;
         }
-        const Vec3 dv = a.llt().solve(rhs);
+        Vec3 dv = a.llt().solve(rhs);
+        if (contact) {
+            // Merged with the share; only a push, and Coulomb's cone: a share that would pull the body is
+            // dropped for this pass, one that would grip outside the cone keeps its normal part.
+            const auto merged = [&](const Mat3& share, Vec3& out) {
+                out = (a + share).llt().solve(rhs + share * (v_surface - p.v));
+                return Vec3(share * (p.v + out - v_surface));  // what the body takes
+            };
+            Vec3 dv_merged;
+            Vec3 j = merged(p.share, dv_merged);
+            Real jn = j.dot(contact->n);
+            if (jn <= 0 && (j - jn * contact->n).norm() > -contact->mu * jn) {
+                j = merged(p.share_normal, dv_merged);
+                jn = j.dot(contact->n);
+            }
+            if (jn <= 0 && is_finite(dv_merged)) {
+                dv = dv_merged;
+                vel.set_linear(contact->rigid, vel.linear(contact->rigid) + contact->inv_mb * j);
+                const Vec3 dw = jn * contact->irn + j.dot(contact->t1) * contact->irt1 + j.dot(contact->t2) * contact->irt2;
+                vel.set_angular(contact->rigid, vel.angular(contact->rigid) + dw);
+                p.ext -= j;
+                contact->total -= j;
+            }
+        }
         if (!is_finite(dv)) continue;
         p.v += dv;
         if (p.attach >= 0) {
@@ -366,6 +395,40 @@ void ParticleRows::solve_springs(const BodyVelocities& vel) {
         const Vec3 shift = -net / wb.mass;
         for (std::uint32_t i = wb.begin; i < wb.end; ++i) particles_[i].v += shift;
     }
+}
+
+void ParticleRows::assign_contact_shares(const RigidSystem::State& st) {
+    // One-solver: a whole body's particle touching a dynamic body carries a share of its mass along the
+    // normal in its block of the sweep (while the contact pushes), as two-way's implicit solve does: the
+    // springs then hold the body in the sweep itself. With the rows alone a heavy body on light particles
+    // sank through them (the 1 kg ball on 0.9 g particles reached the ground). Split evenly over the
+    // particles touching the body; a particle on two bodies shares the first.
+    share_count_.assign(st.inv_mass.size(), 0);
+    for (std::size_t k = 0; k < rows_.size(); ++k) {
+        Row& r = rows_[k];
+        Particle& p = particles_[r.particle];
+        if (!p.whole || st.inv_mass[r.rigid] == 0 || p.share_row >= 0) continue;
+        p.share_row = std::int32_t(k);
+        ++share_count_[r.rigid];
+    }
+    for (Particle& p : particles_)
+        if (p.share_row >= 0) {
+            // Along the normal the body's mass; across it, where friction acts, the tangential part of its
+            // effective mass at the point, K^-1 (a ball can spin under it): two-way's shares, whose normal
+            // part alone let the resting ball spin up and roll off.
+            const Row& r = rows_[std::size_t(p.share_row)];
+            const Real split = 1 / Real(share_count_[r.rigid]);
+            const Mat3 nn = r.n * r.n.transpose();
+            p.share_normal = split / st.inv_mass[r.rigid] * nn;
+            p.share = p.share_normal;
+            if (r.mu > 0) {
+                const Mat3 rx = skew(r.arm);
+                const Mat3 k = st.inv_mass[r.rigid] * Mat3::Identity() - rx * st.inv_inertia_world[r.rigid] * rx;
+                const Mat3 k_inv = k.inverse();
+                const Mat3 t = Mat3::Identity() - nn;
+                p.share += split * (t * k_inv * t);
+            }
+        }
 }
 
 void ParticleRows::solve_rows(const BodyVelocities& vel, bool use_bias) {

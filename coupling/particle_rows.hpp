@@ -111,6 +111,9 @@ private:
         Vec3 ext = Vec3::Zero();     ///< whole bodies: impulses from contact rows and the soft contact pass since then
         std::uint32_t ends_begin = 0, ends_end = 0, ends_fill = 0;  ///< its springs in spring_ends_
         std::int32_t attach = -1;    ///< into attach_rows_, or -1
+        std::int32_t share_row = -1; ///< whole bodies: the contact row with a dynamic body whose mass share it carries, or -1
+        Mat3 share = Mat3::Zero();   ///< that share (kg): the body's mass along the normal, K^-1's tangential part across it
+        Mat3 share_normal = Mat3::Zero();  ///< its normal part alone (outside the friction cone)
     };
     struct AttachRow {  ///< one-solver: an attached particle whose block carries its body's share
         std::uint32_t particle = 0;  ///< into particles_
@@ -143,6 +146,7 @@ private:
     /// One-solver: every particle of soft body `slot` and its links (particle_of_ maps them).
     void add_whole_body(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, Real h);
     void solve_springs(const BodyVelocities& vel);
+    void assign_contact_shares(const RigidSystem::State& st);
     void add_attachment_rows(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, std::uint32_t base);
     /// Adds dv to the soft particle's velocity (and to a whole body's position, over `moves` seconds).
     void give_soft_velocity(Particle& p, const Vec3& dv, Real moves);
@@ -173,6 +177,7 @@ private:
     std::vector<Previous> previous_v_;  ///< per soft slot
     std::uint32_t step_count_ = 0;      ///< prepare() calls
     std::vector<std::uint32_t> degree_;  ///< scratch of add_whole_body
+    std::vector<std::uint32_t> share_count_;  ///< scratch of assign_contact_shares: per rigid slot
     bool springs_active_ = true;         ///< a (sub-)step is still to be integrated
     std::vector<std::int32_t> particle_of_;  ///< scratch of build(): a soft body's particle -> particles_
     RowStep step_;
