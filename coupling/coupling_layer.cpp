@@ -137,9 +137,8 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     const std::size_t first_attachment = attach_shares_.size();
     if (b.def.method == SoftMethod::ImplicitEuler)
         for (const Attachment& a : b.attachments) {
-            if (!a.frame_valid) continue;
-            const BodyId rid = unpack_body_id(a.target);
-            if (!rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            BodyId rid;
+            if (!dynamic_target(a, rid)) continue;
             if (!shares_with(b, coupling_strategy_of(settings_, id, rid))) continue;
             if (st.inv_mass[rid.index] == 0) rigid_.wake(rid);
             if (st.inv_mass[rid.index] == 0) continue;
@@ -194,14 +193,19 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     }
 }
 
+bool CouplingLayer::dynamic_target(const Attachment& a, BodyId& out) const {
+    out = unpack_body_id(a.target);
+    return a.frame_valid && rigid_.valid(out) && rigid_.slot_type(out.index) == BodyType::Dynamic;
+}
+
 void CouplingLayer::ask_attachment_reactions(SoftBody& b, SoftBodyId id) {
     // Hybrid and interleaved attachments to dynamic bodies send back what holding the particle took;
     // implicit Euler reports it (SoftBody::attachment_impulse).
     bool wanted = false;
     if (b.def.method == SoftMethod::ImplicitEuler)
         for (const Attachment& a : b.attachments) {
-            const BodyId rid = unpack_body_id(a.target);
-            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            BodyId rid;
+            if (!dynamic_target(a, rid)) continue;
             const CouplingStrategy st = coupling_strategy_of(settings_, id, rid);
             wanted = wanted || st == CouplingStrategy::Hybrid || st == CouplingStrategy::Interleaved;
         }
@@ -218,8 +222,8 @@ void CouplingLayer::send_back_attachment_reactions(Real h) {
         const SoftBodyId id = soft_.id_of_slot(s);
         for (std::size_t k = 0; k < b.attachments.size(); ++k) {
             const Attachment& a = b.attachments[k];
-            const BodyId rid = unpack_body_id(a.target);
-            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            BodyId rid;
+            if (!dynamic_target(a, rid)) continue;
             const CouplingStrategy strategy = coupling_strategy_of(settings_, id, rid);
             const std::uint32_t o = rid.index;
             const Vec3 point = rigid_.slot_transform(o).apply(a.local_point);
@@ -355,8 +359,8 @@ void CouplingLayer::collect_hybrid_reaction() {
         if (!b.stepping || b.attachment_impulse.size() != b.attachments.size()) continue;
         for (std::size_t k = 0; k < b.attachments.size(); ++k) {
             const Attachment& a = b.attachments[k];
-            const BodyId rid = unpack_body_id(a.target);
-            if (!a.frame_valid || !rigid_.valid(rid) || rigid_.slot_type(rid.index) != BodyType::Dynamic) continue;
+            BodyId rid;
+            if (!dynamic_target(a, rid)) continue;
             if (coupling_strategy_of(settings_, soft_.id_of_slot(s), rid) != CouplingStrategy::Hybrid) continue;
             const Vec3 j = -settings_.gain * b.attachment_impulse[k];
             if (j.isZero()) continue;

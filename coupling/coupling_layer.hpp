@@ -60,6 +60,8 @@ private:
     void send_back_share_impulses();
     /// Two-way: the shares of rigid bodies implicit body `b` carries through this step's solve.
     void assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
+    /// The attachment's target, if it still exists and is a dynamic body (its frame written this step).
+    bool dynamic_target(const Attachment& a, BodyId& out) const;
     /// Sizes b.attachment_impulse when a hybrid or interleaved attachment of b wants its reaction.
     void ask_attachment_reactions(SoftBody& b, SoftBodyId id);
     /// After soft SolveVelocities: hybrid attachments give the opposite of what holding their particle
