@@ -7,7 +7,8 @@
 namespace sinew {
 
 CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
-    : pipeline_(pipeline), rigid_(rigid), soft_(soft), kinematics_(pipeline, rigid, soft), rows_(soft, settings_) {
+    : pipeline_(pipeline), rigid_(rigid), soft_(soft), kinematics_(pipeline, rigid, soft), rows_(soft, settings_),
+      embedding_(pipeline, rigid, soft) {
     rigid_.add_rows(&rows_);
     const int soft_index = pipeline.find_system(soft.name());
     hooks_[0] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::Before,
@@ -53,6 +54,7 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
         kinematics_.set_substeps(s.substeps);
     }
     settings_ = s;
+    embedding_.update_membership(settings_);
 }
 
 bool CouplingLayer::any(CouplingStrategy s) const {

@@ -27,6 +27,7 @@
 #include "coupling/coupling_settings.hpp"
 #include "coupling/one_way_coupling.hpp"
 #include "coupling/particle_rows.hpp"
+#include "coupling/rigid_embedding.hpp"
 
 namespace sinew {
 
@@ -52,6 +53,9 @@ public:
     /// contact (two-way rows and reactions sent back; the one-way contacts push nothing back).
     const std::vector<CouplingImpulse>& impulses() const { return impulses_; }
     OneWayCoupling& kinematics() { return kinematics_; }
+    /// Embedded soft bodies and their rigid proxies (strategy embed-rigid).
+    RigidEmbedding& embedding() { return embedding_; }
+    const RigidEmbedding& embedding() const { return embedding_; }
 
 private:
     void begin_step(Real h);
@@ -104,6 +108,7 @@ private:
     CouplingSettings settings_;
     OneWayCoupling kinematics_;
     ParticleRows rows_;
+    RigidEmbedding embedding_;
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass

@@ -7,7 +7,7 @@
 namespace sinew {
 
 namespace {
-const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver"};
+const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid"};
 static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
 }  // namespace
 
@@ -50,8 +50,8 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         for (const CouplingPair& p : s.pairs) ok = ok && passive(p.strategy);
         if (!ok)
             return "coupling substeps = " + std::to_string(s.substeps) +
-                   " needs one-way or hybrid coupling for every pair (two-way, interleaved and one-solver exchange "
-                   "within one step of both systems)";
+                   " needs one-way or hybrid coupling for every pair (two-way, interleaved, one-solver and "
+                   "embed-rigid exchange within one step of both systems)";
     }
     for (std::size_t k = 0; k < s.pairs.size(); ++k) {
         const CouplingPair& p = s.pairs[k];
@@ -59,6 +59,9 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
             return "coupling pair " + std::to_string(k) + ": strategy " + std::to_string(int(p.strategy)) +
                    " is unknown (known: " + coupling_strategy_list() + ")";
         if (p.soft.is_null()) return "coupling pair " + std::to_string(k) + ": no soft body";
+        if (p.strategy == CouplingStrategy::EmbedRigid && !p.rigid.is_null())
+            return "coupling pair " + std::to_string(k) +
+                   ": embed-rigid embeds the whole soft body (its proxy meets every rigid body): name no rigid body";
     }
     return {};
 }

@@ -25,6 +25,12 @@
 //             loop as the rigid contacts, the joints, the particles' contacts with every collider and its
 //             attachments; its own method only predicts (explicit forces) and runs the contact pass. FEM
 //             and Verlet bodies are coupled as under two-way.
+//   embed-rigid  embedding (Fishman 2012, seed 001 ch.4 §2 and ch.5 §7): the soft body enters the rigid
+//             solver as one rigid proxy (mass, centre of mass, Steiner inertia, momentum and angular
+//             momentum of its nodes, a rotation by polar decomposition, the convex hull of its nodes) that
+//             meets every rigid body and joint there; what the rigid solve does to the proxy is given to
+//             the nodes as a rigid motion (coupling/rigid_embedding.hpp). Per soft body: a pair naming
+//             one rigid body cannot embed.
 #pragma once
 
 #include <cstdint>
@@ -36,9 +42,9 @@
 
 namespace sinew {
 
-enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, Count };
+enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, EmbedRigid, Count };
 
-/// "one-way", "two-way", "hybrid", "interleaved", "one-solver".
+/// "one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid".
 const char* coupling_strategy_name(CouplingStrategy s);
 /// Parses a name of coupling_strategy_name (false if unknown).
 bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);

@@ -60,6 +60,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         w_frame_.emplace_back();
         spherical_inertia_.push_back(0);
         local_com_.emplace_back();
+        reshaped_.push_back(0);
         linear_damping_.push_back(0);
         angular_damping_.push_back(0);
         gravity_scale_.push_back(1);
@@ -93,6 +94,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         spherical_inertia_[slot] = (in - k * Mat3::Identity()).cwiseAbs().maxCoeff() <= Real(1e-6) * std::abs(k) ? 1 : 0;
     }
     local_com_[slot] = dynamic ? mp.center : Vec3::Zero();
+    reshaped_[slot] = 0;
     linear_damping_[slot] = def.linear_damping;
     angular_damping_[slot] = def.angular_damping;
     gravity_scale_[slot] = def.gravity_scale;
@@ -134,6 +136,12 @@ void RigidSystem::destroy_body(BodyId id) {
             wake_island(c.body_b);
         }
     joints_->destroy_attached(s);
+    const auto names_s = [s](std::uint64_t key) { return std::uint32_t(key >> 32) == s || std::uint32_t(key) == s; };
+    const auto kept = std::remove_if(ignored_pairs_.begin(), ignored_pairs_.end(), names_s);
+    if (kept != ignored_pairs_.end()) {
+        ignored_pairs_.erase(kept, ignored_pairs_.end());
+        ignored_changed_ = true;
+    }
     tree_.destroy(proxy_[s]);
     proxy_[s] = DynamicTree::kNull;
     shape_[s] = Shape{};
@@ -178,6 +186,43 @@ void RigidSystem::set_transform(BodyId id, const Transform& xf) {
     w_frame_[s] = state_.q[s];  // the angular velocity is kept, not the angular momentum
     tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
     wake_island(s);
+}
+
+void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& inertia) {
+    check(id, "reshape");
+    const std::uint32_t s = id.index;
+    auto bad = [](const std::string& why) { throw RigidError("reshape: " + why); };
+    if (type_[s] == BodyType::Static) bad("a static body cannot be reshaped");
+    const bool dynamic = type_[s] == BodyType::Dynamic;
+    if (!shape.can_be_dynamic()) bad(std::string("a ") + shape_type_name(shape.type) + " can only belong to a static body");
+    if (!is_finite(mass) || !(mass > 0)) bad("mass must be finite and > 0, got " + to_text(mass));
+    if (!inertia.allFinite() || (inertia - inertia.transpose()).cwiseAbs().maxCoeff() > Real(1e-6) * inertia.cwiseAbs().maxCoeff())
+        bad("inertia must be finite and symmetric");
+    const Eigen::LLT<Mat3> llt(inertia);
+    if (llt.info() != Eigen::Success) bad("inertia must be positive definite");
+    const Transform origin{state_.x[s], state_.q[s]};
+    const Aabb box = shape.bounds(origin);
+    if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");
+
+    shape_[s] = shape;
+    local_com_[s] = Vec3::Zero();
+    reshaped_[s] = 1;
+    if (!dynamic) {  // a kinematic body's mass plays no part
+        tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
+        return;
+    }
+    mass_[s] = mass;
+    body_inv_mass_[s] = 1 / mass;
+    inertia_local_[s] = inertia;
+    inv_inertia_local_[s] = inertia.inverse();
+    const Real k = inertia.trace() / 3;
+    spherical_inertia_[s] = (inertia - k * Mat3::Identity()).cwiseAbs().maxCoeff() <= Real(1e-6) * std::abs(k) ? 1 : 0;
+    if (state_.inv_mass[s] != 0) {  // moving in this step's solve: the new mass acts now
+        const Mat3 r = state_.q[s].toRotationMatrix();
+        state_.inv_mass[s] = body_inv_mass_[s];
+        state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
+    }
+    tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
 }
 
 Vec3 RigidSystem::linear_velocity(BodyId id) const {

@@ -26,7 +26,9 @@ void RigidSystem::detect_collisions(Real h) {
     }
     // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
     // resting scene keeps last step's sorted list (as Box2D keeps its pair set between moves).
-    if (tree_.revision() != pairs_tree_revision_ || joints_->filter_revision() != pairs_filter_revision_) {
+    if (tree_.revision() != pairs_tree_revision_ || joints_->filter_revision() != pairs_filter_revision_ ||
+        ignored_changed_) {
+        ignored_changed_ = false;
         pairs_tree_revision_ = tree_.revision();
         pairs_filter_revision_ = joints_->filter_revision();
         candidate_pairs_.clear();
@@ -37,6 +39,8 @@ void RigidSystem::detect_collisions(Real h) {
             if (a > b) std::swap(a, b);
             if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
             if (joints_->filters_pair(a, b)) continue;
+            if (!ignored_pairs_.empty() && std::binary_search(ignored_pairs_.begin(), ignored_pairs_.end(), pair_key(a, b)))
+                continue;
             pair_keys_.push_back(pair_key(a, b));
         }
         std::sort(pair_keys_.begin(), pair_keys_.end());
@@ -77,7 +81,7 @@ void RigidSystem::detect_collisions(Real h) {
         const Mat3& rot_a = detect_rot_[a];
         const Mat3& rot_b = detect_rot_[b];
         const Transform relative = xa.inverse() * xb;
-        if (prev_end > prev_i && can_reuse(prev_contacts_[prev_i].relative, relative)) {
+        if (prev_end > prev_i && !reshaped_[a] && !reshaped_[b] && can_reuse(prev_contacts_[prev_i].relative, relative)) {
             // Body-pair cache (as Jolt does): the pair moved as one within 1 mm and 0.5 degrees since
             // its manifold was computed, so the cached points are carried with the bodies instead of
             // running the narrow phase again. Points stay attached to A and B; the depth follows the
@@ -112,6 +116,19 @@ void RigidSystem::detect_collisions(Real h) {
         // A sleeping body touched by an awake one wakes with its whole island.
         if (asleep_a != asleep_b) wake_island(asleep_a ? a : b);
     }
+    std::fill(reshaped_.begin(), reshaped_.end(), std::uint8_t(0));
+}
+
+void RigidSystem::ignore_pair(BodyId a, BodyId b, bool ignore) {
+    check(a, "ignore_pair");
+    check(b, "ignore_pair");
+    const std::uint64_t key = a.index < b.index ? pair_key(a.index, b.index) : pair_key(b.index, a.index);
+    auto it = std::lower_bound(ignored_pairs_.begin(), ignored_pairs_.end(), key);
+    const bool there = it != ignored_pairs_.end() && *it == key;
+    if (ignore && !there) ignored_pairs_.insert(it, key);
+    else if (!ignore && there) ignored_pairs_.erase(it);
+    else return;
+    ignored_changed_ = true;
 }
 
 Transform RigidSystem::detection_transform(std::uint32_t s, Real h) const {

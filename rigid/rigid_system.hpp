@@ -90,6 +90,17 @@ public:
     /// Friction and restitution take effect from the next step (density only matters at creation and
     /// is kept). Throws RigidError for a negative or non-finite friction or a restitution outside [0, 1].
     void set_material(BodyId id, const Material& m);
+    /// Replaces a moving body's shape and (dynamic only) mass properties: `shape` in a body frame whose
+    /// origin is the centre of mass, `inertia` about it in that frame. The pose stays where the centre of mass is (the
+    /// origin becomes it). For bodies whose shape changes between steps (a soft body's rigid proxy,
+    /// coupling/rigid_proxy.hpp): the pair cache computes such a body's manifolds afresh, and its
+    /// inverse mass and inertia take effect at once, inside a step too. Throws RigidError (nothing
+    /// changed) for a static body, a shape a dynamic body cannot carry, a mass <= 0 or an inertia
+    /// that is not finite, symmetric and positive definite.
+    void reshape(BodyId id, const Shape& shape, Real mass, const Mat3& inertia);
+    /// Bodies a and b never collide while `ignore` holds (a soft body's proxy and the bodies the soft body
+    /// is attached to). Forgotten when either body is destroyed. Throws RigidError for a bad id.
+    void ignore_pair(BodyId a, BodyId b, bool ignore);
     bool awake(BodyId id) const;
     void wake(BodyId id);
     std::uint64_t user_data(BodyId id) const;
@@ -221,6 +232,8 @@ private:
     /// nothing, so the gyroscopic update is skipped.
     std::vector<std::uint8_t> spherical_inertia_;
     std::vector<Vec3> local_com_;
+    /// 1 if reshape() changed the body's shape since the last detection: its cached manifolds are stale.
+    std::vector<std::uint8_t> reshaped_;
     std::vector<Real> linear_damping_, angular_damping_, gravity_scale_;
     std::vector<bool> allow_sleep_, awake_;
     std::vector<Real> sleep_timer_;
@@ -232,6 +245,8 @@ private:
     std::vector<std::uint64_t> pair_keys_;
     // The broad phase's pairs are recomputed only when the tree or the joint filter changed since.
     std::uint64_t pairs_tree_revision_ = ~std::uint64_t(0), pairs_filter_revision_ = ~std::uint64_t(0);
+    std::vector<std::uint64_t> ignored_pairs_;  ///< sorted slot pair keys (ignore_pair)
+    bool ignored_changed_ = false;
 
     DynamicTree tree_;
     std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;

@@ -177,6 +177,9 @@ struct SoftBody {
     /// Set by a coupling layer before the step (one-solver coupling): the body's links are rows of the rigid
     /// solver this step, and its method only predicts (soft/soft_methods.hpp, soft_stages_of).
     bool solved_by_rows = false;
+    /// Set by a coupling layer (embedding, coupling/rigid_embedding.hpp): the body meets the colliders
+    /// through its rigid proxy only, so its own contact pass has no colliders.
+    bool meets_colliders_through_proxy = false;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

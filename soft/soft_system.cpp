@@ -351,7 +351,8 @@ void SoftSystem::detect_collisions(Real h) {
             b.sleep_timer = 0;
             begin_step(b, h);
         }
-        collision_[s].begin(b, colliders_, h);
+        static const std::vector<Collider> kNone;
+        collision_[s].begin(b, b.meets_colliders_through_proxy ? kNone : colliders_, h);
     }
 }
 

@@ -365,9 +365,9 @@ TEST_CASE("bench coupling prints one JSON line per scene and strategy", "[tool][
     REQUIRE(r.exited);
     CHECK(r.status == 0);
     const std::vector<std::string> lines = lines_of(r.out);
-    REQUIRE(lines.size() == 5);
-    const char* strategies[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver"};
-    for (int k = 0; k < 5; ++k) {
+    REQUIRE(lines.size() == 6);
+    const char* strategies[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid"};
+    for (int k = 0; k < 6; ++k) {
         const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k)]);
         CHECK(j["scene"] == "box-on-soft-block");
         CHECK(j["strategy"] == strategies[k]);

@@ -507,7 +507,7 @@ void QuickHull::extract(ConvexHullData& out) const {
 
 }  // namespace
 
-Shape make_convex_hull(const std::vector<Vec3>& points) {
+Shape make_convex_hull(const std::vector<Vec3>& points, Real flatness) {
     if (points.size() < 4)
         throw ShapeError("convex hull needs at least 4 points, got " + std::to_string(points.size()));
     std::vector<V3> pts;
@@ -525,6 +525,9 @@ Shape make_convex_hull(const std::vector<Vec3>& points) {
     // the coordinates).
     const double scale = box.diagonal().norm() + box.center().norm() * 0.125;
     double tol = kRelativeTolerance * scale;
+    if (!(flatness >= 0) || !std::isfinite(double(flatness)))
+        throw ShapeError("convex hull flatness must be finite and >= 0, got " + to_text(flatness));
+    tol = std::max(tol, double(flatness) * box.diagonal().norm());
 
     auto hull = std::make_shared<ConvexHullData>();
     for (int attempt = 0;; ++attempt, tol *= kToleranceGrowth) {

@@ -99,7 +99,10 @@ struct Shape {
 Shape make_sphere(Real radius);
 Shape make_box(const Vec3& half_extents);
 Shape make_capsule(Real half_height, Real radius);
-Shape make_convex_hull(const std::vector<Vec3>& points);
+/// `flatness` > 0 (relative to the cloud's diagonal) merges faces whose points lie within it of one plane
+/// and skips points that far inside or above a face: a sagging soft cube's hull (coupling/rigid_proxy.hpp)
+/// keeps six faces instead of hundreds of slivers, each point within flatness x diagonal of the hull.
+Shape make_convex_hull(const std::vector<Vec3>& points, Real flatness = 0);
 Shape make_plane(const Vec3& normal, Real offset);
 Shape make_triangle_mesh(const std::vector<Vec3>& vertices, const std::vector<std::uint32_t>& indices);
 Shape make_compound(const std::vector<std::pair<Transform, Shape>>& children);

@@ -1,0 +1,261 @@
+// Soft bodies embedded into the rigid solver as rigid proxies (coupling/rigid_embedding.hpp).
+#include "coupling/rigid_embedding.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sinew {
+
+namespace {
+bool anchored(const SoftBody& b) {
+    for (Real im : b.p.inv_mass)
+        if (im == 0) return true;
+    return false;
+}
+}  // namespace
+
+RigidEmbedding::RigidEmbedding(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
+    : pipeline_(pipeline), rigid_(rigid), soft_(soft) {
+    const int r = pipeline.find_system(rigid.name());
+    const int s = pipeline.find_system(soft.name());
+    hooks_[0] = pipeline.add_hook(r, Stage::IntegrateVelocities, HookWhen::Before,
+                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "embedding: proxies measured");
+    hooks_[1] = pipeline.add_hook(s, Stage::IntegrateVelocities, HookWhen::After,
+                                  [this](const StepContext& ctx) { after_soft_predict(ctx.h); },
+                                  "embedding: proxy velocities from the prediction");
+    hooks_[2] = pipeline.add_hook(r, Stage::SolveVelocities, HookWhen::After,
+                                  [this](const StepContext& ctx) { after_rigid_solve(ctx.h); },
+                                  "embedding: rigid solve -> nodes");
+    hooks_[3] = pipeline.add_hook(r, Stage::IntegratePositions, HookWhen::After,
+                                  [this](const StepContext& ctx) { after_rigid_positions(ctx.h); },
+                                  "embedding: rigid positions -> nodes");
+    hooks_[4] = pipeline.add_hook(s, Stage::IntegratePositions, HookWhen::After,
+                                  [this](const StepContext&) { end_step(); }, "embedding: proxies placed");
+}
+
+RigidEmbedding::~RigidEmbedding() {
+    for (int h : hooks_) pipeline_.remove_hook(h);
+}
+
+std::size_t RigidEmbedding::count() const {
+    std::size_t n = 0;
+    for (const Proxy& px : proxies_) n += px.body.is_null() ? 0 : 1;
+    return n;
+}
+
+BodyId RigidEmbedding::proxy(SoftBodyId id) const {
+    if (!soft_.valid(id) || id.index >= proxies_.size()) return {};
+    const Proxy& px = proxies_[id.index];
+    return px.soft_generation == id.generation && rigid_.valid(px.body) ? px.body : BodyId{};
+}
+
+SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
+    if (rigid.is_null()) return {};
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s)
+        if (proxies_[s].body == rigid && soft_.slot_alive(s) && soft_.id_of_slot(s).generation == proxies_[s].soft_generation)
+            return soft_.id_of_slot(s);
+    return {};
+}
+
+void RigidEmbedding::update_membership(const CouplingSettings& settings) {
+    settings_ = settings;
+    if (proxies_.size() < soft_.slot_count()) proxies_.resize(soft_.slot_count());
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        Proxy& px = proxies_[s];
+        const bool alive = s < soft_.slot_count() && soft_.slot_alive(s);
+        const SoftBodyId id = alive ? soft_.id_of_slot(s) : SoftBodyId{};
+        const bool same_body = alive && px.soft_generation == id.generation;
+        const bool want = alive && soft_.slot_body(s).p.size() > 0 &&
+                          coupling_strategy_of(settings, id, BodyId{}) == CouplingStrategy::EmbedRigid;
+        const bool have = !px.body.is_null() && rigid_.valid(px.body) && same_body &&
+                          px.anchored == anchored(soft_.slot_body(s));
+        if (have && want) continue;
+        if (!px.body.is_null() && rigid_.valid(px.body)) rigid_.destroy_body(px.body);
+        if (alive && same_body) soft_.slot_body(s).meets_colliders_through_proxy = false;
+        px = Proxy{};
+        if (want) {
+            px.soft_generation = id.generation;
+            px.body = create_proxy(s);
+        }
+    }
+}
+
+BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
+    SoftBody& b = soft_.slot_body(slot);
+    Proxy& px = proxies_[slot];
+    const RigidProxyState st = measure_rigid_proxy(b.p.x, b.p.v, b.p.mass, b.p.x);  // rest: as it is now
+    px.rest.resize(b.p.size());
+    for (std::size_t i = 0; i < b.p.size(); ++i) px.rest[i] = b.p.x[i] - st.com;
+    px.anchored = anchored(b);
+    BodyDef def;
+    def.type = px.anchored ? BodyType::Kinematic : BodyType::Dynamic;
+    def.pose = Transform{st.com, Quat::Identity()};
+    def.shape = make_sphere(Real(0.01));  // replaced by the hull in write()
+    def.mass = st.mass;
+    def.material.friction = b.def.friction;
+    def.material.restitution = b.def.restitution;
+    def.gravity_scale = 0;   // the soft system gives the nodes their gravity
+    def.allow_sleep = false; // the soft body sleeps on its own terms (not yet while embedded)
+    px.body = rigid_.create_body(def);
+    b.meets_colliders_through_proxy = true;
+    write(slot, px, b.p.x, b.p.v, true);
+    return px.body;
+}
+
+void RigidEmbedding::momenta(const Proxy& px, Vec3& p, Vec3& l) const {
+    const RigidSystem::State& st = rigid_.state();
+    const std::uint32_t s = px.body.index;
+    p = rigid_.mass(px.body) * st.v[s];
+    // The inertia as the proxy has turned since it was written: I(q) = T I0 Tᵀ, T = q q0⁻¹.
+    const Mat3 t = (st.q[s] * px.q0.conjugate()).toRotationMatrix();
+    l = t * (px.inertia0 * (t.transpose() * st.w[s]));
+}
+
+void RigidEmbedding::take_changes(std::uint32_t slot, Proxy& px, Into into, Real h) {
+    if (px.anchored) return;  // kinematic: nothing but its nodes moves it
+    Vec3 p, l;
+    momenta(px, p, l);
+    const Vec3 dp = p - px.p_written, dl = l - px.l_written;
+    px.p_written = p;
+    px.l_written = l;
+    if (dp.isZero(0) && dl.isZero(0)) return;
+    SoftBody& b = soft_.slot_body(slot);
+    const Vec3 dv = dp / rigid_.mass(px.body);
+    const Vec3 dw = px.inertia0.ldlt().solve(dl);
+    // The arms are taken at x_n (p.x outside SolveVelocities), where the proxy's inertia was measured.
+    for (std::uint32_t i = 0; i < b.p.size(); ++i) {
+        if (b.p.inv_mass[i] == 0) continue;  // pinned or attached: its pin or target decides
+        const Vec3 dvi = dv + dw.cross(b.p.x[i] - px.com0);
+        if (into == Into::Predicted) soft_.change_predicted_velocity(slot, i, dvi, h);
+        else b.p.v[i] += dvi;
+    }
+}
+
+bool RigidEmbedding::stepping(std::uint32_t s) const {
+    return !proxies_[s].body.is_null() && soft_.slot_alive(s) && soft_.slot_body(s).stepping &&
+           rigid_.valid(proxies_[s].body);
+}
+
+void RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                           bool reshape) {
+    SoftBody& b = soft_.slot_body(slot);
+    const RigidProxyState st = measure_rigid_proxy(x, v, b.p.mass, px.rest);
+    const Quat q(st.rotation);
+    if (reshape) {
+        // The hull of the nodes in the proxy's frame (origin at the centre of mass). A flat body (a cloth)
+        // has no volume: its nodes are doubled a thickness to either side.
+        std::vector<Vec3>& local = scratch_x_;
+        local.resize(x.size());
+        const Mat3 rt = st.rotation.transpose();
+        for (std::size_t i = 0; i < x.size(); ++i) local[i] = rt * (x[i] - st.com);
+        Shape hull;
+        try {
+            hull = make_convex_hull(local, kHullFlatness);
+        } catch (const ShapeError&) {
+            // Flat or thin within the flatness: each node becomes a small box of the body's thickness
+            // (at least the flatness, so the hull has volume to find).
+            Aabb box;
+            for (const Vec3& y : local) box.grow(y);
+            const Real pad = std::max(b.def.thickness, kHullFlatness * (box.hi - box.lo).norm());
+            const std::size_t n = local.size();
+            for (std::size_t i = 0; i < n; ++i)
+                for (int a = 0; a < 3; ++a) {
+                    Vec3 d = Vec3::Zero();
+                    d[a] = pad;
+                    local.push_back(local[i] + d);
+                    local.push_back(local[i] - d);
+                }
+            hull = make_convex_hull(local);
+        }
+        rigid_.reshape(px.body, hull, st.mass, Mat3(rt * st.inertia * st.rotation));
+    }
+    rigid_.set_transform(px.body, Transform{st.com, q});
+    rigid_.set_velocity(px.body, st.v, st.w);
+    px.com0 = st.com;
+    px.q0 = rigid_.state().q[px.body.index];
+    px.inertia0 = st.inertia;
+    momenta(px, px.p_written, px.l_written);
+}
+
+void RigidEmbedding::begin_step(Real) {
+    update_membership(settings_);  // soft bodies created or destroyed since
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        Proxy& px = proxies_[s];
+        if (px.body.is_null()) continue;
+        SoftBody& b = soft_.slot_body(s);
+        // Kept awake while embedded: a proxy struck while its body slept would have nowhere to put it.
+        b.awake = true;
+        b.sleep_timer = 0;
+        take_changes(s, px, Into::Between, 0);  // impulses given to the proxy between steps
+        // The proxy does not collide with what its body hangs on (a rope's hull would always overlap
+        // the crate it is tied to), as joined bodies do not by default.
+        for (const Attachment& a : b.attachments) {
+            const BodyId target = unpack_body_id(a.target);
+            if (rigid_.valid(target) && target != px.body) rigid_.ignore_pair(px.body, target, true);
+        }
+        write(s, px, b.p.x, b.p.v, true);
+    }
+}
+
+void RigidEmbedding::after_soft_predict(Real h) {
+    // The velocity the rigid solve starts from: the nodes' predicted motion over the step (gravity and
+    // internal forces; Verlet's and Liu's inertial prediction), (x_next - x_n) / h.
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        if (!stepping(s)) continue;
+        Proxy& px = proxies_[s];
+        SoftBody& b = soft_.slot_body(s);
+        take_changes(s, px, Into::Predicted, h);  // Newtonian impulses' collision passes
+        std::vector<Vec3>& v = scratch_v_;
+        v.resize(b.p.size());
+        for (std::size_t i = 0; i < v.size(); ++i) v[i] = (b.p.x_next[i] - b.p.x[i]) / h;
+        write(s, px, b.p.x, v, false);
+    }
+}
+
+void RigidEmbedding::after_rigid_solve(Real h) {
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s)
+        if (stepping(s)) take_changes(s, proxies_[s], Into::Predicted, h);
+}
+
+void RigidEmbedding::after_rigid_positions(Real h) {
+    const RigidSystem::State& st = rigid_.state();
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        if (!stepping(s)) continue;
+        Proxy& px = proxies_[s];
+        take_changes(s, px, Into::Solved, h);  // the soft step's relax and restitution, layers' reactions
+        if (px.anchored) continue;        // Where the proxy went against where its final velocity alone takes it from where it was written:
+        // the rigid solve's position work (the soft step's biased sub-steps, split impulses' pseudo-
+        // velocities, joint projection). The nodes' end-of-step positions take the same rigid displacement
+        // about their centre of mass, so the soft body ends where its proxy did.
+        const std::uint32_t r = px.body.index;
+        const Vec3 shift = st.x[r] - (px.com0 + h * st.v[r]);
+        const Quat free_q = integrate_rotation(px.q0, st.w[r], h);
+        const Mat3 turn = (st.q[r] * free_q.conjugate()).normalized().toRotationMatrix();
+        SoftBody& b = soft_.slot_body(s);
+        Particles& p = b.p;
+        // The nodes' end-of-step positions: x_next + h (v - v_solved) (SoftSystem::integrate_positions).
+        double m_total = 0;
+        Eigen::Vector3d cm = Eigen::Vector3d::Zero();
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            const Vec3 y = p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
+            m_total += p.mass[i];
+            cm += double(p.mass[i]) * y.cast<double>();
+        }
+        const Vec3 c = (cm / m_total).cast<Real>();
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            if (p.inv_mass[i] == 0) continue;
+            const Vec3 y = p.x_next[i] + h * (p.v[i] - p.v_solved[i]);
+            p.x_next[i] += c + turn * (y - c) + shift - y;
+        }
+    }
+}
+
+void RigidEmbedding::end_step() {
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        if (proxies_[s].body.is_null() || !soft_.slot_alive(s) || !rigid_.valid(proxies_[s].body)) continue;
+        SoftBody& b = soft_.slot_body(s);
+        write(s, proxies_[s], b.p.x, b.p.v, false);
+    }
+}
+
+}  // namespace sinew

@@ -1,0 +1,105 @@
+// Embedding soft bodies into the rigid solver (strategy embed-rigid; Fishman 2012, seed 001 ch.4 §2 and
+// ch.5 §7): each embedded soft body has one dynamic rigid body, its proxy (coupling/rigid_proxy.hpp),
+// that meets every other rigid body, proxy and joint inside the rigid solver as a native body would.
+// The soft body's own step still runs in the soft system (its springs, pressure, elements, gravity);
+// its own contact pass meets no collider (SoftBody::meets_colliders_through_proxy).
+//
+// Where it acts in the step (docs/ARCHITECTURE.md, the step pipeline):
+//  - before rigid IntegrateVelocities: the proxy is measured from the nodes at x_n: mass, centre of mass,
+//    Steiner inertia, rotation, the convex hull of the nodes in its frame (RigidSystem::reshape), and
+//    its velocity from their momentum and angular momentum. It takes no gravity of its own;
+//  - after soft IntegrateVelocities: its velocity is measured again from the nodes' predicted motion
+//    ((x_next - x_n) / h: gravity, internal forces), before the rigid broad phase and the solve see it;
+//  - after rigid SolveVelocities, and after rigid IntegratePositions (the soft step's relax, split
+//    impulses' and joints' position corrections): whatever the rigid solve changed is given to the nodes,
+//    the velocity change as the rigid field Δv + Δω × r_i, the position correction (where the proxy
+//    went against where the nodes' velocities take them) as a rigid displacement of the nodes' end-of-
+//    step positions about their centre of mass;
+//  - after soft IntegratePositions: the proxy is placed where the nodes ended, for queries between steps.
+// Changes are read as momentum and angular momentum (M Δv, Δ(I ω)), not as velocities: the rigid
+// system's gyroscopic update turns ω while keeping I ω, which the nodes already do by moving.
+//
+// A soft body with a pinned or attached node gets a kinematic proxy (moved by its nodes, pushing rigid
+// bodies, pushed by none): a rigid motion of the whole body would move the pinned nodes. It is made anew
+// (its joints gone) when the body gains or loses its last pin.
+//
+// With one proxy per body, applying each velocity change to the nodes inside the solver's iterations
+// (so the next constraint sees them, as seed 001 asks) and applying the sum after the solve are the same:
+// the nodes are read by nothing else during the rigid solve (the soft body meets colliders only through
+// its proxy), and the proxy's velocity is exactly the nodes' rigid part. Per-element proxies, whose shared
+// nodes would couple neighbouring proxies inside the loop, are not built.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "coupling/coupling_settings.hpp"
+#include "coupling/rigid_proxy.hpp"
+#include "engine/core/pipeline.hpp"
+#include "rigid/rigid_system.hpp"
+#include "soft/soft_system.hpp"
+
+namespace sinew {
+
+class RigidEmbedding {
+public:
+    RigidEmbedding(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft);
+    ~RigidEmbedding();
+    RigidEmbedding(const RigidEmbedding&) = delete;
+    RigidEmbedding& operator=(const RigidEmbedding&) = delete;
+
+    /// Creates the proxies of the soft bodies `settings` embeds that have none, destroys those of bodies
+    /// that are gone or no longer embedded (their joints with them). Runs at every step's start too.
+    void update_membership(const CouplingSettings& settings);
+    /// The proxy of soft body `id`, or a null id if it is not embedded.
+    BodyId proxy(SoftBodyId id) const;
+    /// The soft body whose proxy `rigid` is, or a null id.
+    SoftBodyId soft_of(BodyId rigid) const;
+    /// How many soft bodies are embedded now.
+    std::size_t count() const;
+    /// Relative flatness of the proxies' hulls (make_convex_hull): points within it x the diagonal of a
+    /// plane share one face.
+    static constexpr Real kHullFlatness = Real(0.004);
+
+private:
+    struct Proxy {
+        BodyId body;
+        std::uint32_t soft_generation = 0;
+        /// Some node is pinned or attached: the proxy is kinematic (it pushes rigid bodies and nothing
+        /// pushes it), since a rigid motion of the whole body would move the pinned nodes.
+        bool anchored = false;
+        std::vector<Vec3> rest;   ///< node offsets from the centre of mass when the proxy was made
+        Vec3 com0 = Vec3::Zero(); ///< centre of mass when last written
+        Quat q0 = Quat::Identity();  ///< the proxy's orientation when last written
+        Mat3 inertia0 = Mat3::Zero();  ///< the nodes' inertia at x_n (world): the Δω of an angular impulse
+        Vec3 p_written = Vec3::Zero(), l_written = Vec3::Zero();  ///< the proxy's momenta as last written
+    };
+    void begin_step(Real h);
+    void after_soft_predict(Real h);
+    void after_rigid_solve(Real h);
+    void after_rigid_positions(Real h);
+    void end_step();
+    /// The proxy's momenta now (M v, I_world(q) ω).
+    void momenta(const Proxy& px, Vec3& p, Vec3& l) const;
+    /// Where a velocity change goes: between steps (velocities), into the soft method's prediction
+    /// (before soft SolveVelocities), or after the soft solve (IntegratePositions moves by h times it).
+    enum class Into { Between, Predicted, Solved };
+    /// What the rigid system did to the proxy since its momenta were last written, given to the nodes
+    /// as the rigid field Δv + Δω × r_i about the centre of mass last written; the momenta written now.
+    void take_changes(std::uint32_t slot, Proxy& px, Into into, Real h);
+    /// The soft body of proxy slot s, if it steps this step.
+    bool stepping(std::uint32_t s) const;
+    /// Writes pose (and with `reshape` the hull, mass and inertia) and velocity from the nodes.
+    void write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v, bool reshape);
+    BodyId create_proxy(std::uint32_t slot);
+
+    Pipeline& pipeline_;
+    RigidSystem& rigid_;
+    SoftSystem& soft_;
+    CouplingSettings settings_;
+    std::vector<Proxy> proxies_;  ///< by soft slot (body null: not embedded)
+    std::vector<Vec3> scratch_v_, scratch_x_;
+    int hooks_[5] = {0, 0, 0, 0, 0};
+};
+
+}  // namespace sinew
