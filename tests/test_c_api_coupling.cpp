@@ -101,10 +101,19 @@ TEST_CASE("C API: one-way by default lets the ball through; a pair override make
 
 TEST_CASE("C API: every coupling strategy is accepted, read back and stepped", "[capi][coupling]") {
     for (sinew_coupling s : {SINEW_COUPLING_ONE_WAY, SINEW_COUPLING_TWO_WAY, SINEW_COUPLING_HYBRID,
-                             SINEW_COUPLING_INTERLEAVED, SINEW_COUPLING_ONE_SOLVER}) {
+                             SINEW_COUPLING_INTERLEAVED, SINEW_COUPLING_ONE_SOLVER, SINEW_COUPLING_EMBED_RIGID}) {
         INFO(int(s));
         Trampoline t = make_trampoline();
+        sinew_body_id proxy;
+        CHECK(sinew_world_get_soft_proxy(t.world, t.cloth, &proxy) == SINEW_ERROR_INVALID_ARGUMENT);  // one-way
         REQUIRE(sinew_world_set_coupling(t.world, s, 1) == SINEW_OK);
+        // Embedded, the cloth has a rigid proxy (a kinematic one: its corners are pinned); else none.
+        const sinew_status got = sinew_world_get_soft_proxy(t.world, t.cloth, &proxy);
+        CHECK(got == (s == SINEW_COUPLING_EMBED_RIGID ? SINEW_OK : SINEW_ERROR_INVALID_ARGUMENT));
+        if (got == SINEW_OK) {
+            sinew_transform pxf;
+            CHECK(sinew_body_get_transform(proxy, &pxf) == SINEW_OK);
+        }
         sinew_coupling c = SINEW_COUPLING_HYBRID;
         REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
         CHECK(c == s);
@@ -125,7 +134,7 @@ TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][
         reinterpret_cast<SetCouplingAsInt>(reinterpret_cast<void (*)()>(&sinew_world_set_coupling));
     CHECK(set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "not a sinew_coupling"));
-    CHECK(set_coupling_int(t.world, 5, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
+    CHECK(set_coupling_int(t.world, 6, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
     CHECK(sinew_world_set_coupling(t.world, SINEW_COUPLING_HYBRID, 2.0f) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "gain"));
     sinew_coupling c;

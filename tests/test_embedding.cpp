@@ -221,3 +221,47 @@ TEST_CASE("a soft bob on a hinge swings with the period of its proxy's inertia",
     CHECK(std::abs(period - expect) < 0.02 * expect);
     CHECK(joint_error < 1e-3);
 }
+
+TEST_CASE("a soft door hangs on two hinges of its proxy with joint error under 1 mm", "[embedding]") {
+    // A 0.8 m x 1.6 m x 0.08 m FEM slab (4 x 8 x 1 cells, E = 5e5 Pa, 300 kg/m^3: 30.7 kg) hung on two
+    // hinges about the vertical line of its left edge from a static post, pushed open by a 20 N s impulse
+    // at its far edge. Both hinges hold the same axis (redundant rows, as real doors have): each keeps
+    // its anchors within 1 mm (the issue's bound) for 3 s of swinging.
+    auto w = build_world(parse_scene_string(R"({"format": "sinew-scene", "version": 1,
+      "settings": {"sleeping": {"enabled": false}},
+      "bodies": [{"name": "post", "type": "static", "shape": {"type": "box", "half_extents": [0.05, 1, 0.05]},
+                  "position": [-0.5, 1, 0]}],
+      "soft_bodies": [{"name": "door", "builder": "tet-box", "min_corner": [-0.4, 0.2, -0.04], "size": [0.8, 1.6, 0.08],
+                  "cells": [4, 8, 1], "method": "implicit", "solver": {"iterations": 100, "cg_tolerance": 0.0001},
+                  "fem": {"young": 5e5, "poisson": 0.3, "density": 300, "rotation": "polar"},
+                  "material": {"friction": 0.5, "thickness": 0.005}}],
+      "coupling": {"strategy": "embed-rigid"}})", "door"));
+    const SoftBodyId door = w->soft().bodies()[0];
+    const BodyId proxy = w->coupling().embedding().proxy(door);
+    REQUIRE_FALSE(proxy.is_null());
+    const BodyId post = w->rigid().bodies()[0];
+    std::vector<JointId> hinges;
+    for (Real y : {Real(0.5), Real(1.5)}) {
+        const Vec3 at(Real(-0.42), y, 0);
+        JointDef j;
+        j.type = JointType::Hinge;
+        j.body_a = proxy;
+        j.body_b = post;
+        j.local_anchor_a = w->rigid().transform(proxy).apply_inverse(at);
+        j.local_anchor_b = w->rigid().transform(post).apply_inverse(at);
+        j.local_axis_a = w->rigid().transform(proxy).q.conjugate() * Vec3::UnitY();
+        hinges.push_back(w->rigid().create_joint(j));
+    }
+    w->rigid().apply_impulse(proxy, Vec3(0, 0, 20), Vec3(Real(0.4), Real(1.0), 0));
+    double error = 0, opened = 0;
+    for (int step = 0; step < 180; ++step) {
+        w->step();
+        for (JointId j : hinges) error = std::max(error, double(w->rigid().joints().position_error(j, w->rigid())));
+        const Particles& p = w->soft().body(door).p;
+        opened = std::max(opened, double(node_com(p).z()));
+    }
+    REQUIRE(w->soft().all_finite());
+    INFO("largest hinge error " << error << " m, centre swung out " << opened << " m");
+    CHECK(error < 1e-3);
+    CHECK(opened > 0.1);  // it did swing
+}

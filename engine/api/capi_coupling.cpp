@@ -18,6 +18,7 @@ bool strategy_of(int c, CouplingStrategy& out) {
         case SINEW_COUPLING_HYBRID: out = CouplingStrategy::Hybrid; return true;
         case SINEW_COUPLING_INTERLEAVED: out = CouplingStrategy::Interleaved; return true;
         case SINEW_COUPLING_ONE_SOLVER: out = CouplingStrategy::OneSolver; return true;
+        case SINEW_COUPLING_EMBED_RIGID: out = CouplingStrategy::EmbedRigid; return true;
         default: return false;
     }
 }
@@ -80,6 +81,26 @@ sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body
                 ++k;
         c.pairs.push_back(pair);
         w->set_coupling(c);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out) {
+    const char* fn = "sinew_world_get_soft_proxy";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        const SoftBodyId id{soft.index, soft.generation};
+        if (soft.world != pack_world(world) || !w->soft().valid(id))
+            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
+                                                  ", generation " + std::to_string(soft.generation) +
+                                                  "} is null, destroyed or not in this world");
+        const BodyId proxy = w->coupling().embedding().proxy(id);
+        if (proxy.is_null())
+            return invalid(fn, "soft body {index " + std::to_string(soft.index) +
+                                   "} is not embedded (its coupling strategy is not SINEW_COUPLING_EMBED_RIGID)");
+        *out = {pack_world(world), proxy.index, proxy.generation};
         return SINEW_OK;
     });
 }

@@ -447,12 +447,18 @@ typedef enum sinew_coupling {
     SINEW_COUPLING_TWO_WAY = 1, /* both ways: particles in the rigid solve, rigid inertia in implicit soft solves */
     SINEW_COUPLING_HYBRID = 2,  /* one-way contacts, `gain` times their impulses sent back to the rigid body */
     SINEW_COUPLING_INTERLEAVED = 3, /* Baraff & Witkin 1997: alternate steps, forces a step late, repair */
-    SINEW_COUPLING_ONE_SOLVER = 4   /* two-way in one solver: the soft body's springs solved in the rigid solver's loop */
+    SINEW_COUPLING_ONE_SOLVER = 4,  /* two-way in one solver: the soft body's springs solved in the rigid solver's loop */
+    SINEW_COUPLING_EMBED_RIGID = 5  /* embedding: the soft body is one rigid proxy in the rigid solver (per soft body:
+                                       name no rigid body in sinew_world_set_pair_coupling) */
 } sinew_coupling;
 /** The world's coupling strategy from the next step, for every pair no override names; `gain` in [0, 1]
  *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */
 SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain);
 SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
+/** The rigid proxy of an embedded soft body (SINEW_COUPLING_EMBED_RIGID), a rigid body that joints accept
+ *  as either body (its frame: the soft body's rest shape, origin at its centre of mass when embedded);
+ *  SINEW_ERROR_INVALID_ARGUMENT if the soft body is not embedded. */
+SINEW_API sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:
  *  every rigid body), from the next step; a later call for the same pair replaces it. */
 SINEW_API sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
