@@ -42,6 +42,10 @@ struct SceneBody {
 struct SceneJoint {
     std::string json_path;  ///< where it was defined ("/joints/2"), for later errors
     std::size_t body_a = 0, body_b = 0;
+    /// The body is a soft body (body_a / body_b index soft_bodies): the joint holds its rigid proxy, so
+    /// the soft body must be embedded (coupling strategy embed-rigid). A soft body's frame for anchors and
+    /// axes is the world's (its proxy's frame as it is made: the nodes' centre of mass, unturned).
+    bool soft_a = false, soft_b = false;
     JointDef def;
 };
 

@@ -23,6 +23,7 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         }
     }
     for (const SceneJoint& joint : scene.joints) {
+        if (joint.soft_a || joint.soft_b) continue;  // made below, once the soft bodies have their proxies
         JointDef def = joint.def;
         def.body_a = out.at(joint.body_a);
         def.body_b = out.at(joint.body_b);
@@ -67,6 +68,33 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         world->set_coupling(coupling);
     } catch (const std::invalid_argument& e) {  // CouplingError: the parser checked the values already
         throw SceneError(scene.file, "/coupling", e.what());
+    }
+    // Joints on soft bodies hold their rigid proxies. The file gives a soft body's anchors and axis in the
+    // world's frame (the proxy's frame as it is made, but for the origin at the nodes' centre of mass).
+    for (const SceneJoint& joint : scene.joints) {
+        if (!joint.soft_a && !joint.soft_b) continue;
+        JointDef def = joint.def;
+        const auto end = [&](bool soft, std::size_t index, Vec3& anchor, Vec3* axis) {
+            if (!soft) return out.at(index);
+            const SceneSoftBody& sb = scene.soft_bodies.at(index);
+            const BodyId proxy = world->coupling().embedding().proxy(soft_ids.at(index));
+            if (proxy.is_null())
+                throw SceneError(scene.file, joint.json_path,
+                                 std::string(joint_type_name(def.type)) + " joint: soft body \"" + sb.name +
+                                     "\" is not embedded, so it has no rigid proxy to hold (give it the coupling "
+                                     "strategy \"embed-rigid\")");
+            const Transform xf = world->rigid().transform(proxy);
+            anchor = xf.apply_inverse(anchor);
+            if (axis) *axis = xf.q.conjugate() * *axis;
+            return proxy;
+        };
+        def.body_a = end(joint.soft_a, joint.body_a, def.local_anchor_a, &def.local_axis_a);
+        def.body_b = end(joint.soft_b, joint.body_b, def.local_anchor_b, nullptr);
+        try {
+            world->rigid().create_joint(def);
+        } catch (const std::invalid_argument& e) {  // RigidError
+            throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
+        }
     }
     return world;
 }

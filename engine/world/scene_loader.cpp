@@ -543,13 +543,29 @@ private:
         std::unordered_map<std::string, std::size_t> index_of;
         index_of.reserve(desc_.bodies.size());
         for (std::size_t i = 0; i < desc_.bodies.size(); ++i) index_of.emplace(desc_.bodies[i].name, i);
+        // Soft bodies are parsed after the joints (their attachments name rigid bodies); a joint may name
+        // one by its "name" (checked fully when the soft bodies are parsed).
+        soft_index_of_.clear();
+        if (auto soft = root_.find("soft_bodies"))
+            for (std::size_t i = 0; i < soft->array_size(); ++i)
+                if (auto name = soft->item(i).find("name"))
+                    if (name->json().is_string()) soft_index_of_.emplace(name->json().get<std::string>(), i);
         desc_.joints.reserve(count);
         for (std::size_t i = 0; i < count; ++i) parse_joint(js.item(i), index_of);
     }
 
-    std::size_t joint_body(const Node& ref, const std::unordered_map<std::string, std::size_t>& index_of) const {
+    std::size_t joint_body(const Node& ref, const std::unordered_map<std::string, std::size_t>& index_of,
+                           bool& soft) const {
         const std::string& name = ref.string();
         auto it = index_of.find(name);
+        soft = false;
+        if (it == index_of.end()) {
+            auto s = soft_index_of_.find(name);
+            if (s != soft_index_of_.end()) {
+                soft = true;
+                return s->second;
+            }
+        }
         if (it == index_of.end())
             ref.fail("unknown body \"" + name + "\"" +
                      (desc_.bodies.empty() ? std::string(" (the scene has no bodies)")
@@ -584,11 +600,16 @@ private:
         JointDef& d = sj.def;
         d.type = type;
         const Node ref_a = n.get("body_a"), ref_b = n.get("body_b");
-        sj.body_a = joint_body(ref_a, index_of);
-        sj.body_b = joint_body(ref_b, index_of);
-        const SceneBody& a = desc_.bodies[sj.body_a];
-        const SceneBody& b = desc_.bodies[sj.body_b];
-        if (sj.body_a == sj.body_b) ref_b.fail("body_b must differ from body_a (both are \"" + a.name + "\")");
+        sj.body_a = joint_body(ref_a, index_of, sj.soft_a);
+        sj.body_b = joint_body(ref_b, index_of, sj.soft_b);
+        // A soft body stands in as a dynamic body whose frame is the world's (its proxy's, unturned).
+        SceneBody soft_a, soft_b;
+        soft_a.name = ref_a.string();
+        soft_b.name = ref_b.string();
+        const SceneBody& a = sj.soft_a ? soft_a : desc_.bodies[sj.body_a];
+        const SceneBody& b = sj.soft_b ? soft_b : desc_.bodies[sj.body_b];
+        if (sj.body_a == sj.body_b && sj.soft_a == sj.soft_b)
+            ref_b.fail("body_b must differ from body_a (both are \"" + a.name + "\")");
         if (a.def.type != BodyType::Dynamic && b.def.type != BodyType::Dynamic)
             n.fail("a joint needs at least one dynamic body; \"" + a.name + "\" is " + body_type_name_lower(a.def.type) +
                    " and \"" + b.name + "\" is " + body_type_name_lower(b.def.type));
@@ -652,6 +673,7 @@ private:
     std::unordered_map<std::string, Shape> built_shapes_;
     std::unordered_set<std::string> shapes_in_progress_;
     std::unordered_map<std::string, std::string> body_names_;  // name -> json path of first use
+    std::unordered_map<std::string, std::size_t> soft_index_of_;  // soft body name -> index, for joints
 };
 
 }  // namespace

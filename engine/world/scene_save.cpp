@@ -372,13 +372,39 @@ std::string scene_text(const World& world, const std::string& name, const std::s
     }
     if (!shapes.empty()) doc["shapes"] = std::move(shapes);
 
+    // Embedded soft bodies' proxies are not written: the coupling section makes them again.
+    const RigidEmbedding& embedding = world.coupling().embedding();
+    const auto soft_of = [&](BodyId id) { return embedding.count() ? embedding.soft_of(id) : SoftBodyId{}; };
     Json bodies = Json::array();
     for (std::uint32_t s = 0; s < rigid.slot_count(); ++s)
-        if (rigid.slot_alive(s)) bodies.push_back(body_json(rigid, rigid.id_of_slot(s), shared));
+        if (rigid.slot_alive(s) && soft_of(rigid.id_of_slot(s)).is_null())
+            bodies.push_back(body_json(rigid, rigid.id_of_slot(s), shared));
     doc["bodies"] = std::move(bodies);
 
     Json joints = Json::array();
-    for (JointId id : rigid.joints().ids()) joints.push_back(joint_json(rigid.joints().def(id)));
+    for (JointId id : rigid.joints().ids()) {
+        JointDef d = rigid.joints().def(id);
+        // A joint on a proxy names its soft body, with that end's anchor and axis in the world's frame
+        // and the joint's zero turned to match (the proxy made at load is unturned): with c the proxy's
+        // orientation now, q_A^-1 q_B = ref becomes c ref for a proxy A and ref c^-1 for a proxy B.
+        const SoftBodyId sa = soft_of(d.body_a), sb = soft_of(d.body_b);
+        const bool zero_given = d.reference_rotation.coeffs().squaredNorm() > 0;
+        if (!sa.is_null()) {
+            const Transform xf = rigid.transform(d.body_a);
+            d.local_anchor_a = xf.apply(d.local_anchor_a);
+            d.local_axis_a = xf.q * d.local_axis_a;
+            if (zero_given) d.reference_rotation = xf.q * d.reference_rotation;
+        }
+        if (!sb.is_null()) {
+            const Transform xf = rigid.transform(d.body_b);
+            d.local_anchor_b = xf.apply(d.local_anchor_b);
+            if (zero_given) d.reference_rotation = d.reference_rotation * xf.q.conjugate();
+        }
+        Json j = joint_json(d);
+        if (!sa.is_null()) j["body_a"] = "soft-" + std::to_string(sa.index);
+        if (!sb.is_null()) j["body_b"] = "soft-" + std::to_string(sb.index);
+        joints.push_back(std::move(j));
+    }
     if (!joints.empty()) doc["joints"] = std::move(joints);
 
     Json soft = scene_save::soft_bodies_json(world, origin);
