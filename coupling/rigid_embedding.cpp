@@ -1,6 +1,8 @@
 // Soft bodies embedded into the rigid solver as rigid proxies (coupling/rigid_embedding.hpp).
 #include "coupling/rigid_embedding.hpp"
 
+#include "soft/soft_integrators.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -207,7 +209,11 @@ void RigidEmbedding::after_soft_predict(Real h) {
         take_changes(s, px, Into::Predicted, h);  // Newtonian impulses' collision passes
         std::vector<Vec3>& v = scratch_v_;
         v.resize(b.p.size());
-        for (std::size_t i = 0; i < v.size(); ++i) v[i] = (b.p.x_next[i] - b.p.x[i]) / h;
+        // Fast mass-spring's first iterate leaves gravity out (a body at rest starts at its solution);
+        // its inertial target y holds the step's predicted motion.
+        const bool liu = b.def.method == SoftMethod::FastMassSpring;
+        for (std::uint32_t i = 0; i < v.size(); ++i)
+            v[i] = ((liu ? fast_mass_spring_target(b, i, h) : b.p.x_next[i]) - b.p.x[i]) / h;
         write(s, px, b.p.x, v, false);
     }
 }

@@ -278,6 +278,16 @@ void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3&
     for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(r) + k] += s * double(dv[k]);
 }
 
+Vec3 fast_mass_spring_target(const SoftBody& b, std::uint32_t i, Real h) {
+    const Particles& p = b.p;
+    const FastMassSpringCache* c = b.fms_cache.get();
+    const int r = c && i < c->row.size() ? c->row[i] : -1;
+    if (r < 0) return p.x[i];
+    const double s = double(p.mass[i]) * (1.0 + double(h) * double(b.def.drag)) / (double(h) * double(h));
+    const double* y = &c->inertia[3 * std::size_t(r)];
+    return Vec3(Real(y[0] / s), Real(y[1] / s), Real(y[2] / s));
+}
+
 void step_fast_mass_spring(SoftBody& b, Real h) {
     predict_fast_mass_spring(b, h);
     solve_fast_mass_spring(b, h);

@@ -55,6 +55,10 @@ void solve_fast_mass_spring(SoftBody& b, Real h);
 /// A velocity change dv of particle i after predict_fast_mass_spring (a coupling impulse): the predicted
 /// position and the inertial term y move by h dv, so the iterations do not pull the particle back.
 void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h);
+/// Liu's inertial target y_i of particle i after predict_fast_mass_spring (gravity and external forces
+/// included): the motion the step predicts, which the first iterate (x_n + h v_n, kept so a body at rest
+/// starts at its solution) leaves out. Pinned particles: their position.
+Vec3 fast_mass_spring_target(const SoftBody& b, std::uint32_t i, Real h);
 
 /// Projects particles onto their long-range attachment spheres (unilateral) and removes the outward
 /// velocity component of those it moved.
