@@ -96,8 +96,11 @@ BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
     def.mass = st.mass;
     def.material.friction = b.def.friction;
     def.material.restitution = b.def.restitution;
-    def.gravity_scale = 0;   // the soft system gives the nodes their gravity
-    def.allow_sleep = false; // the soft body sleeps on its own terms (not yet while embedded)
+    // The proxy falls as the rigid bodies do (the soft step adds gravity a sub-step at a time: given at
+    // once, a stack of five proxies kept 0.07 m/s of push-out velocity the relax passes did not remove);
+    // the nodes take their gravity in their own step, so the rigid system's part is not given back.
+    def.gravity_scale = b.def.gravity_scale;
+    def.allow_sleep = b.def.allow_sleep;  // the proxy's island decides; the soft body follows it
     px.body = rigid_.create_body(def);
     b.meets_colliders_through_proxy = true;
     write(slot, px, b.p.x, b.p.v, true);
@@ -171,8 +174,7 @@ void RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3
         }
         rigid_.reshape(px.body, hull, st.mass, Mat3(rt * st.inertia * st.rotation));
     }
-    rigid_.set_transform(px.body, Transform{st.com, q});
-    rigid_.set_velocity(px.body, st.v, st.w);
+    rigid_.place(px.body, Transform{st.com, q}, st.v, st.w);
     px.com0 = st.com;
     px.q0 = rigid_.state().q[px.body.index];
     px.inertia0 = st.inertia;
@@ -185,9 +187,19 @@ void RigidEmbedding::begin_step(Real) {
         Proxy& px = proxies_[s];
         if (px.body.is_null()) continue;
         SoftBody& b = soft_.slot_body(s);
-        // Kept awake while embedded: a proxy struck while its body slept would have nowhere to put it.
-        b.awake = true;
-        b.sleep_timer = 0;
+        const SoftBodyId id = soft_.id_of_slot(s);
+        // A dynamic proxy's rigid island decides when the body sleeps (a stack of embedded cubes sleeps as
+        // a rigid stack does): asleep with it, woken with it. An anchored body's kinematic proxy follows
+        // the soft system's own sleeping.
+        if (!px.anchored) {
+            if (!rigid_.awake(px.body)) {
+                soft_.put_to_sleep(id);
+                continue;
+            }
+            if (!b.awake) soft_.wake(id);
+        } else if (!b.awake) {
+            continue;
+        }
         take_changes(s, px, Into::Between, 0);  // impulses given to the proxy between steps
         // The proxy does not collide with what its body hangs on (a rope's hull would always overlap
         // the crate it is tied to), as joined bodies do not by default.
@@ -206,6 +218,11 @@ void RigidEmbedding::after_soft_predict(Real h) {
         if (!stepping(s)) continue;
         Proxy& px = proxies_[s];
         SoftBody& b = soft_.slot_body(s);
+        // Solvers other than the soft step have given the proxy its gravity in their IntegrateVelocities
+        // (before this): the nodes have it from their own step.
+        const Vec3 fall = h * b.def.gravity_scale * rigid_.settings().gravity * rigid_.mass(px.body);
+        const bool fall_in_solve = rigid_.settings().solver == RigidSolverKind::SoftStep;
+        if (!px.anchored && !fall_in_solve) px.p_written += fall;
         take_changes(s, px, Into::Predicted, h);  // Newtonian impulses' collision passes
         std::vector<Vec3>& v = scratch_v_;
         v.resize(b.p.size());
@@ -214,7 +231,14 @@ void RigidEmbedding::after_soft_predict(Real h) {
         const bool liu = b.def.method == SoftMethod::FastMassSpring;
         for (std::uint32_t i = 0; i < v.size(); ++i)
             v[i] = ((liu ? fast_mass_spring_target(b, i, h) : b.p.x_next[i]) - b.p.x[i]) / h;
+        if (!px.anchored && fall_in_solve) {
+            // The soft step adds the step's gravity a sub-step at a time: the proxy starts without it,
+            // and what the solve adds is not a change to give the nodes.
+            const Vec3 dv = fall / rigid_.mass(px.body);
+            for (Vec3& vi : v) vi -= dv;
+        }
         write(s, px, b.p.x, v, false);
+        if (!px.anchored && fall_in_solve) px.p_written += fall;
     }
 }
 

@@ -225,6 +225,20 @@ void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& 
     tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
 }
 
+void RigidSystem::place(BodyId id, const Transform& xf, const Vec3& v, const Vec3& w) {
+    check(id, "place");
+    const std::uint32_t s = id.index;
+    if (type_[s] == BodyType::Static) return;
+    state_.q[s] = xf.q.normalized();
+    state_.x[s] = xf.p + state_.q[s] * local_com_[s];
+    state_.v[s] = v;
+    state_.w[s] = w;
+    w_frame_[s] = state_.q[s];
+    if (state_.inv_mass[s] != 0) state_.inv_inertia_world[s] = state_.q[s].toRotationMatrix() * inv_inertia_local_[s] *
+                                                                state_.q[s].toRotationMatrix().transpose();
+    tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
+}
+
 Vec3 RigidSystem::linear_velocity(BodyId id) const {
     check(id, "linear_velocity");
     return state_.v[id.index];

@@ -77,6 +77,10 @@ public:
     Vec3 linear_velocity(BodyId id) const;
     Vec3 angular_velocity(BodyId id) const;
     void set_velocity(BodyId id, const Vec3& v, const Vec3& w);
+    /// Pose and velocity of a moving body that something else drives every step (a soft body's proxy,
+    /// coupling/rigid_embedding.hpp): unlike set_transform and set_velocity it wakes nothing, so the body's
+    /// island may still fall asleep when the driven motion is slow. Not checked beyond the id.
+    void place(BodyId id, const Transform& xf, const Vec3& v, const Vec3& w);
     void apply_force(BodyId id, const Vec3& force, const Vec3& world_point);
     void apply_impulse(BodyId id, const Vec3& impulse, const Vec3& world_point);
     BodyType type(BodyId id) const;

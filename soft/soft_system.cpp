@@ -244,6 +244,16 @@ Aabb SoftSystem::bounds(std::uint32_t slot) const {
     return b.awake ? particle_bounds(b) : b.sleep_box;  // a sleeping body's particles have not moved
 }
 
+void SoftSystem::put_to_sleep(SoftBodyId id) {
+    check(id, "put_to_sleep");
+    SoftBody& b = bodies_[id.index];
+    if (!b.awake) return;
+    b.sleep_box = particle_bounds(b);
+    b.awake = false;
+    b.sleep_timer = 0;
+    for (Vec3& v : b.p.v) v.setZero();
+}
+
 // ---- stepping -----------------------------------------------------------------------------------------
 
 void SoftSystem::set_substeps(int k, std::function<void(int, Real)> before_substep) {
@@ -347,7 +357,10 @@ void SoftSystem::detect_collisions(Real h) {
         if (!b.stepping) {
             // Asleep: woken by a collider that moves near it. The colliders are refreshed just before
             // this stage, so the forces of this step are taken now.
-            if (!touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity)) continue;
+            // An embedded body is woken by its proxy's island, not by colliders it does not meet.
+            if (b.meets_colliders_through_proxy ||
+                !touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity))
+                continue;
             b.sleep_timer = 0;
             begin_step(b, h);
         }

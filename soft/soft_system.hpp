@@ -70,6 +70,9 @@ public:
     const SoftBody& slot_body(std::uint32_t slot) const { return bodies_[slot]; }
 
     void wake(SoftBodyId id);
+    /// Puts a body to sleep now, its velocities zero (a coupling layer whose proxy of it fell asleep with
+    /// its rigid island). Throws SoftError for a bad id.
+    void put_to_sleep(SoftBodyId id);
     bool awake(SoftBodyId id) const;
     /// Moves particle `i` (and its previous position, so it gains no velocity). Throws SoftError.
     void set_particle_position(SoftBodyId id, std::uint32_t i, const Vec3& x);
