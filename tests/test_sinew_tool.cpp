@@ -397,6 +397,51 @@ TEST_CASE("bench coupling prints one JSON line per scene and strategy", "[tool][
     CHECK_THAT(bad.err, Contains("no-such-scene"));
 }
 
+TEST_CASE("compare runs a scene under each strategy against a converged reference", "[tool][compare]") {
+    // Half a second of box-on-soft-block under one-way and two-way (two variants each) against two-way at
+    // h/8: one line for the reference's own check, one per variant. Two-way tracks the reference within
+    // millimetres where one-way lets the box fall through the block (centimetres); the reference moves by
+    // far less than either when its step is halved again.
+    const std::string dir = kSource + "/demos/scenes";
+    const Result r = sinew_cmd("compare " + quote(dir + "/box-on-soft-block.json") + " --steps 30 --strategies one-way,two-way");
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const std::vector<std::string> lines = lines_of(r.out);
+    REQUIRE(lines.size() == 5);
+    const nlohmann::json check = nlohmann::json::parse(lines[0]);
+    CHECK(check["variant"] == "reference-check");
+    CHECK(check["reference"] == "two-way h/8");
+    const char* variants[] = {"one-way", "one-way x4 soft", "two-way", "two-way h/2"};
+    double err[4];
+    for (int k = 0; k < 4; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k) + 1]);
+        CHECK(j["variant"] == variants[k]);
+        CHECK(j["finite"] == true);
+        CHECK(j["ms_per_step_median"].get<double>() > 0);
+        err[k] = j["position_rms"].get<double>();
+    }
+    CHECK(err[2] < 0.1 * err[0]);
+    CHECK(check["position_rms"].get<double>() < 0.1 * err[2]);
+
+    // A scene whose joints hold a soft body runs embedded only: the others say why they do not apply.
+    const Result door = sinew_cmd("compare " + quote(dir + "/soft-door.json") + " --steps 6 --strategies two-way,embed-rigid");
+    INFO("stdout: " << door.out << "\nstderr: " << door.err);
+    REQUIRE(door.exited);
+    CHECK(door.status == 0);
+    const std::vector<std::string> dl = lines_of(door.out);
+    REQUIRE(dl.size() == 5);
+    CHECK(nlohmann::json::parse(dl[0])["reference"] == "embed-rigid h/8");  // the scene's compare_reference
+    CHECK(nlohmann::json::parse(dl[1])["applies"] == false);
+    CHECK_THAT(nlohmann::json::parse(dl[1])["why"].get<std::string>(), Contains("not embedded"));
+    CHECK(nlohmann::json::parse(dl[3])["finite"] == true);
+
+    const Result bad = sinew_cmd("compare " + quote(dir + "/box-on-soft-block.json") + " --strategies sideways");
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 2);
+    CHECK_THAT(bad.err, Contains("sideways"));
+}
+
 TEST_CASE("mesh fills a closed OBJ surface with tets through TetGen, and refuses an open one", "[tool][fem]") {
     const fs::path dir = scratch();
     // A unit cube, counter-clockwise from outside.

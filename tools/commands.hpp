@@ -35,6 +35,7 @@ extern const Command run_command;
 extern const Command validate_command;
 extern const Command bench_command;  // tools/bench/bench_rigid.cpp
 extern const Command mesh_command;
+extern const Command compare_command;  // tools/cmd_compare.cpp
 
 // ---- argument helpers ------------------------------------------------------------------------------
 

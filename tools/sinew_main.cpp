@@ -17,6 +17,7 @@ const Command* const kCommands[] = {
     &sinew::tool::validate_command,
     &sinew::tool::bench_command,
     &sinew::tool::mesh_command,
+    &sinew::tool::compare_command,
 };
 
 const Command* find_command(const std::string& name) {

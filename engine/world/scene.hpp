@@ -89,6 +89,10 @@ struct SceneCoupling {
         CouplingStrategy strategy = CouplingStrategy::TwoWay;
     };
     std::vector<Pair> pairs;
+    /// "compare_reference": the strategy `sinew compare` runs to convergence as the reference the others are
+    /// measured against: two-way by default; embed-rigid for a scene whose soft bodies meet each other
+    /// or hold joints, which only embedding models. Not world state: a saved world does not write it.
+    CouplingStrategy compare_reference = CouplingStrategy::TwoWay;
 };
 
 /// A parsed and validated scene.

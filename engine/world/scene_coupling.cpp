@@ -16,7 +16,8 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     // Files written before the section existed may hold the reserved empty array: the default, one-way.
     if (node.json().is_array() && node.json().empty()) return;
     node.expect_object();
-    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "pairs"});
+    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "pairs", "compare_reference"});
+    desc.coupling.compare_reference = read_strategy(node, "compare_reference", desc.coupling.compare_reference);
     CouplingSettings& s = desc.coupling.settings;
     s.strategy = read_strategy(node, "strategy", s.strategy);
     s.exchange_iterations = read_int(node, "exchange_iterations", s.exchange_iterations, 1, 100);

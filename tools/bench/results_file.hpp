@@ -7,7 +7,8 @@ namespace sinew::bench {
 
 /// Replaces the text between "<!-- NAME:begin -->" and "<!-- NAME:end -->" in `path` (appending the
 /// section if absent, creating the file if missing) with `body` plus a line naming the machine and date.
-bool replace_section(const std::string& path, const std::string& name, const std::string& body);
+bool replace_section(const std::string& path, const std::string& name, const std::string& body,
+                     const std::string& generator = "sinew bench");
 
 /// `target` written relative to the directory of `from_file` (for links inside a markdown file).
 std::string relative_to(const std::string& target, const std::string& from_file);

@@ -1,0 +1,325 @@
+// `sinew compare`: one scene under every coupling and embedding variant, each measured against a
+// reference run of the same scene: speed against accuracy (issue 11; docs/compare.md).
+//
+//   sinew compare SCENE.json [--strategies LIST] [--steps N] [--reference STRATEGY] [--reference-divide N]
+//                 [--chart FILE.png] [--markdown FILE.md]
+//   sinew compare --all [--scene-dir DIR] [--steps N] [--chart-dir DIR] [--markdown FILE.md]
+//
+// The reference is a strategy (the scene's "compare_reference", two-way by default) run with its step
+// divided by N (8); the same run at
+// 2N says how far the reference itself is from converged (printed first, as "reference-check"). Every
+// variant then prints one JSON line: its label and settings, median ms per scene step, and its errors
+// (tools/compare_runs.hpp). Progress goes to stderr.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "tools/bench/results_file.hpp"
+#include "tools/commands.hpp"
+#include "tools/compare_runs.hpp"
+
+namespace sinew::tool {
+
+namespace {
+
+using compare::Errors;
+using compare::Recording;
+using compare::Variant;
+
+const char* const kComparisonScenes[] = {"ball-on-trampoline", "box-on-soft-block", "rope-tow",          "cloth-on-arm",
+                                         "basketball-net",     "stack-of-soft-cubes", "soft-door"};
+
+/// Every variant that applies to a scene: each strategy at the scene's step, the sub-stepping ones with
+/// four soft steps per step, hybrid at two gains, and the two-way family and embedding at h/2 too.
+std::vector<Variant> default_variants() {
+    using S = CouplingStrategy;
+    std::vector<Variant> v;
+    v.push_back({S::OneWay, 1, 1, 1});
+    v.push_back({S::OneWay, 4, 1, 1});
+    v.push_back({S::Hybrid, 1, Real(0.5), 1});
+    v.push_back({S::Hybrid, 1, 1, 1});
+    v.push_back({S::Hybrid, 4, 1, 1});
+    v.push_back({S::Interleaved, 1, 1, 1});
+    v.push_back({S::TwoWay, 1, 1, 1});
+    v.push_back({S::TwoWay, 1, 1, 2});
+    v.push_back({S::OneSolver, 1, 1, 1});
+    v.push_back({S::OneSolver, 1, 1, 2});
+    v.push_back({S::EmbedRigid, 1, 1, 1});
+    v.push_back({S::EmbedRigid, 1, 1, 2});
+    return v;
+}
+
+struct Row {
+    Variant variant;
+    Recording rec;
+    Errors err;
+    bool pareto = false;
+};
+
+double round6(double x) { return std::isfinite(x) ? std::round(x * 1e6) / 1e6 : x; }
+
+nlohmann::json row_json(const std::string& scene, const Row& r) {
+    nlohmann::json j;
+    j["suite"] = "compare";
+    j["scene"] = scene;
+    j["variant"] = r.variant.label();
+    j["strategy"] = coupling_strategy_name(r.variant.strategy);
+    j["substeps"] = r.variant.substeps;
+    j["gain"] = round6(double(r.variant.gain));
+    j["divide"] = r.variant.divide;
+    j["ms_per_step_median"] = round6(r.rec.ms_per_step_median);
+    j["position_rms"] = round6(r.err.position_rms);
+    j["rigid_rms"] = round6(r.err.rigid_rms);
+    j["rigid_max"] = round6(r.err.rigid_max);
+    j["soft_rms"] = round6(r.err.soft_rms);
+    j["soft_max"] = round6(r.err.soft_max);
+    j["final_max"] = round6(r.err.final_max);
+    j["exchanged_error"] = round6(r.err.exchanged);
+    j["max_penetration"] = round6(r.rec.max_penetration);
+    j["pareto"] = r.pareto;
+    j["finite"] = r.rec.finite;
+    return j;
+}
+
+/// Marks the runs no other finite run beats in both time and position error.
+void mark_pareto(std::vector<Row>& rows) {
+    for (Row& a : rows) {
+        if (!a.rec.finite) continue;
+        a.pareto = true;
+        for (const Row& b : rows)
+            if (&a != &b && b.rec.finite && b.rec.ms_per_step_median <= a.rec.ms_per_step_median &&
+                b.err.position_rms <= a.err.position_rms &&
+                (b.rec.ms_per_step_median < a.rec.ms_per_step_median || b.err.position_rms < a.err.position_rms)) {
+                a.pareto = false;
+                break;
+            }
+    }
+}
+
+std::string mm(double m) {
+    char b[32];
+    std::snprintf(b, sizeof b, m < 0.1 ? "%.2f" : "%.0f", m * 1000);
+    return b;
+}
+
+std::string markdown_table(const std::string& scene, const std::string& reference, const Errors& check,
+                           const std::vector<Row>& rows, const std::string& chart_link) {
+    std::ostringstream o;
+    o << "### " << scene << "\n\n"
+      << "Against the reference, " << reference << " (halving its step again moves it by " << mm(check.position_rms)
+      << " mm RMS, " << mm(check.final_max) << " mm at the end). Position errors over every step of the run, rigid "
+      << "centres and soft nodes; *exchanged*: the impulse soft bodies gave dynamic rigid bodies, relative to the "
+      << "reference's; **bold**: on the Pareto front of time against position RMS.\n\n"
+      << "| variant | ms/step | position RMS (mm) | rigid max (mm) | soft max (mm) | final max (mm) | exchanged error | "
+         "penetration (mm) | finite |\n|---|---|---|---|---|---|---|---|---|\n";
+    for (const Row& r : rows) {
+        char ms[32], ex[32];
+        std::snprintf(ms, sizeof ms, "%.3f", r.rec.ms_per_step_median);
+        std::snprintf(ex, sizeof ex, "%.3f", r.err.exchanged);
+        const std::string name = r.pareto ? "**" + r.variant.label() + "**" : r.variant.label();
+        o << "| " << name << " | " << ms << " | " << (r.rec.finite ? mm(r.err.position_rms) : "-") << " | "
+          << (r.rec.finite ? mm(r.err.rigid_max) : "-") << " | " << (r.rec.finite ? mm(r.err.soft_max) : "-") << " | "
+          << (r.rec.finite ? mm(r.err.final_max) : "-") << " | " << (r.rec.finite ? ex : "-") << " | "
+          << mm(r.rec.max_penetration) << " | " << (r.rec.finite ? "yes" : "**no**") << " |\n";
+    }
+    if (!chart_link.empty()) o << "\n![" << scene << ": position error against time](" << chart_link << ")\n";
+    o << "\n";
+    return o.str();
+}
+
+bool write_chart(const std::string& scene, const std::vector<Row>& rows, double noise, const std::string& png) {
+    const std::string dat = png + ".dat", gp = png + ".gp";
+    {
+        std::ofstream out(dat);
+        out << "# all\n";
+        for (const Row& r : rows)
+            if (r.rec.finite)
+                out << std::max(r.rec.ms_per_step_median, 1e-3) << " " << std::max(r.err.position_rms, 1e-6) << " \""
+                    << r.variant.label() << "\"\n";
+        out << "\n\n# pareto\n";
+        std::vector<const Row*> front;
+        for (const Row& r : rows)
+            if (r.pareto) front.push_back(&r);
+        std::sort(front.begin(), front.end(),
+                  [](const Row* a, const Row* b) { return a->rec.ms_per_step_median < b->rec.ms_per_step_median; });
+        for (const Row* r : front)
+            out << std::max(r->rec.ms_per_step_median, 1e-3) << " " << std::max(r->err.position_rms, 1e-6) << "\n";
+        if (front.empty()) out << "nan nan\n";
+    }
+    {
+        std::ofstream g(gp);
+        g << "set terminal pngcairo size 900,600\nset output '" << png << "'\nset grid\nset logscale xy\n"
+          << "set datafile missing 'nan'\nset key outside below\nset title '" << scene
+          << ": position error against the reference, against time'\nset xlabel 'median ms per step'\n"
+          << "set ylabel 'position RMS error (m)'\n"
+          // Errors below the reference's own (its step halved again) are not resolved.
+          << "set arrow 1 from graph 0, first " << std::max(noise, 1e-6) << " to graph 1, first " << std::max(noise, 1e-6)
+          << " nohead dt 2 lc rgb 'gray'\nset label 1 'reference check' at graph 0.01, first " << std::max(noise, 1e-6) * 1.2
+          << " font ',8' tc rgb 'gray'\n"
+          << "plot '" << dat << "' index 0 using 1:2 with points pt 7 ps 1.3 lc rgb '#1f77b4' title 'variants', "
+          << "'' index 0 using 1:2:3 with labels offset 0,0.9 font ',8' notitle, "
+          << "'' index 1 using 1:2 with linespoints lw 2 pt 6 ps 2 lc rgb '#d62728' title 'Pareto front'\n";
+    }
+    const int rc = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str());
+    std::remove(dat.c_str());
+    std::remove(gp.c_str());
+    return rc == 0;
+}
+
+std::vector<std::string> split_list(const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    for (std::string item; std::getline(ss, item, ',');)
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
+
+/// Compares one scene; returns its markdown section, or "" if nothing ran. Sets `all_finite`.
+std::string compare_scene(const std::string& path, const std::vector<Variant>& variants, int steps_arg,
+                          const CouplingStrategy* reference_override, int reference_divide, const std::string& chart,
+                          const std::string& markdown, bool& all_finite) {
+    const SceneDesc scene = parse_scene_file(path);
+    const CouplingStrategy reference_strategy = reference_override ? *reference_override : scene.coupling.compare_reference;
+    const int steps = steps_arg > 0 ? steps_arg : scene.steps;
+    const std::string name = scene.name.empty() ? std::filesystem::path(path).stem().string() : scene.name;
+    const Variant ref{reference_strategy, 1, 1, reference_divide};
+    const Variant ref2{reference_strategy, 1, 1, 2 * reference_divide};
+    std::cerr << "sinew compare: " << name << ": reference " << ref.label() << " ..." << std::endl;
+    const Recording reference = compare::run_variant(scene, ref, steps);
+    std::cerr << "sinew compare: " << name << ": reference check " << ref2.label() << " ..." << std::endl;
+    const Recording finer = compare::run_variant(scene, ref2, steps);
+    if (!reference.finite) throw std::runtime_error(name + ": the reference run (" + ref.label() + ") is not finite");
+    const Errors check = compare::errors_against(finer, reference);
+    nlohmann::json cj;
+    cj["suite"] = "compare";
+    cj["scene"] = name;
+    cj["variant"] = "reference-check";
+    cj["reference"] = ref.label();
+    cj["finer"] = ref2.label();
+    cj["position_rms"] = round6(check.position_rms);
+    cj["final_max"] = round6(check.final_max);
+    cj["finite"] = finer.finite;
+    std::cout << cj.dump() << std::endl;
+
+    std::vector<Row> rows;
+    for (const Variant& v : variants) {
+        std::cerr << "sinew compare: " << name << ": " << v.label() << " ..." << std::endl;
+        Row r;
+        r.variant = v;
+        try {
+            r.rec = compare::run_variant(scene, v, steps);
+        } catch (const SceneError& e) {
+            // A strategy the scene cannot run (a joint on a soft body needs it embedded): said, not run.
+            nlohmann::json j;
+            j["suite"] = "compare";
+            j["scene"] = name;
+            j["variant"] = v.label();
+            j["applies"] = false;
+            j["why"] = e.what();
+            std::cout << j.dump() << std::endl;
+            continue;
+        }
+        r.err = compare::errors_against(r.rec, reference);
+        all_finite = all_finite && r.rec.finite;
+        rows.push_back(std::move(r));
+    }
+    mark_pareto(rows);
+    for (const Row& r : rows) std::cout << row_json(name, r).dump() << std::endl;
+    bool charted = false;
+    if (!chart.empty()) {
+        charted = write_chart(name, rows, check.position_rms, chart);
+        if (!charted) std::cerr << "sinew compare: gnuplot failed; no chart\n";
+    }
+    const std::string link = charted && !markdown.empty() ? bench::relative_to(chart, markdown) : "";
+    return markdown_table(name, ref.label(), check, rows, link);
+}
+
+int run_compare(const std::vector<std::string>& args) {
+    std::vector<std::string> scenes;
+    std::vector<std::string> strategies;
+    std::string chart, chart_dir, markdown, scene_dir = "demos/scenes";
+    int steps = 0, reference_divide = 8;
+    CouplingStrategy reference = CouplingStrategy::TwoWay;
+    bool all = false, reference_given = false;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        if (a == "--all") all = true;
+        else if (is_option(a, "--strategies")) strategies = split_list(option_value(args, i, "--strategies"));
+        else if (is_option(a, "--steps")) steps = int(parse_int("--steps", option_value(args, i, "--steps"), 1, 1000000));
+        else if (is_option(a, "--reference-divide"))
+            reference_divide = int(parse_int("--reference-divide", option_value(args, i, "--reference-divide"), 1, 64));
+        else if (is_option(a, "--reference")) {
+            const std::string s = option_value(args, i, "--reference");
+            if (!parse_coupling_strategy(s, reference))
+                throw UsageError("--reference: unknown strategy \"" + s + "\" (known: " + coupling_strategy_list() + ")");
+            reference_given = true;
+        } else if (is_option(a, "--chart")) chart = option_value(args, i, "--chart");
+        else if (is_option(a, "--chart-dir")) chart_dir = option_value(args, i, "--chart-dir");
+        else if (is_option(a, "--markdown")) markdown = option_value(args, i, "--markdown");
+        else if (is_option(a, "--scene-dir")) scene_dir = option_value(args, i, "--scene-dir");
+        else if (!a.empty() && a[0] == '-') throw UsageError("unknown option " + a);
+        else scenes.push_back(a);
+    }
+    if (all) {
+        if (!scenes.empty()) throw UsageError("give scene files or --all, not both");
+        for (const char* s : kComparisonScenes) scenes.push_back(scene_dir + "/" + s + ".json");
+    }
+    if (scenes.empty()) throw UsageError("no scene given (a scene file, or --all)");
+    if (scenes.size() > 1 && !chart.empty()) throw UsageError("--chart names one file: with several scenes use --chart-dir");
+    std::vector<Variant> variants;
+    for (const Variant& v : default_variants()) {
+        if (strategies.empty()) {
+            variants.push_back(v);
+            continue;
+        }
+        for (const std::string& s : strategies) {
+            CouplingStrategy c;
+            if (!parse_coupling_strategy(s, c))
+                throw UsageError("--strategies: unknown strategy \"" + s + "\" (known: " + coupling_strategy_list() + ")");
+            if (c == v.strategy) variants.push_back(v);
+        }
+    }
+    bool all_finite = true;
+    std::string body;
+    for (const std::string& path : scenes) {
+        std::string png = chart;
+        if (!chart_dir.empty()) png = chart_dir + "/compare-" + std::filesystem::path(path).stem().string() + ".png";
+        body += compare_scene(path, variants, steps, reference_given ? &reference : nullptr, reference_divide, png,
+                              markdown, all_finite);
+    }
+    if (!markdown.empty() && !bench::replace_section(markdown, "compare", body, "sinew compare --all")) {
+        std::cerr << "sinew compare: could not write " << markdown << "\n";
+        return kExitFailure;
+    }
+    return all_finite ? kExitOk : kExitNonFinite;
+}
+
+}  // namespace
+
+extern const Command compare_command = {
+    "compare", run_compare, "run a scene under every coupling and embedding strategy against a reference",
+    "usage: sinew compare SCENE.json... [--strategies LIST] [--steps N] [--reference STRATEGY]\n"
+    "                     [--reference-divide N] [--chart FILE.png] [--chart-dir DIR] [--markdown FILE.md]\n"
+    "       sinew compare --all [--scene-dir DIR] [...]\n\n"
+    "Runs each scene under every coupling and embedding variant (one-way, one-way with 4 soft sub-steps,\n"
+    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid at h and h/2)\n"
+    "and measures each against a reference: STRATEGY (default: the scene's coupling.compare_reference,\n"
+    "else two-way) with the step divided by N (8),\n"
+    "itself checked against the same at 2N. Prints one JSON line per run: median ms per scene step,\n"
+    "position errors (RMS and maximum over every step, rigid centres and soft nodes; the last step's),\n"
+    "the error of the impulse soft bodies gave rigid bodies, the deepest penetration, the Pareto front.\n"
+    "Sleeping is off in every run.\n\n"
+    "  --strategies LIST      only these strategies (comma-separated names)\n"
+    "  --steps N              scene steps per run (default: the scene's)\n"
+    "  --all                  the comparison scenes of demos/scenes (--scene-dir DIR)\n"
+    "  --chart FILE.png       error against time, Pareto front marked (gnuplot); --chart-dir DIR for --all\n"
+    "  --markdown FILE.md     rewrite the compare section of FILE (docs/RESULTS.md)\n"
+    "Exit status: 0, 1 on a bad scene or output, 2 on bad arguments, 3 if a run was not finite.\n"};
+
+}  // namespace sinew::tool

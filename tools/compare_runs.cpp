@@ -1,0 +1,119 @@
+// One scene under one coupling or embedding variant, recorded, and its errors against a reference
+// (tools/compare_runs.hpp).
+#include "tools/compare_runs.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "tools/bench/bench_cloth.hpp"  // BenchClock
+
+namespace sinew::tool::compare {
+
+std::string Variant::label() const {
+    std::ostringstream s;
+    s << coupling_strategy_name(strategy);
+    if (strategy == CouplingStrategy::Hybrid) s << " gain " << gain;
+    if (substeps > 1) s << " x" << substeps << " soft";
+    if (divide > 1) s << " h/" << divide;
+    return s.str();
+}
+
+namespace {
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+}  // namespace
+
+Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
+    SceneDesc d = scene;
+    d.coupling.settings.strategy = v.strategy;
+    d.coupling.settings.gain = v.gain;
+    d.coupling.settings.substeps = v.substeps;
+    d.coupling.pairs.clear();  // the variant's strategy for every pair
+    d.settings.time_step = scene.settings.time_step / Real(v.divide);
+    // Sleeping off: every run does the same work, and a body asleep in one run but not another would be
+    // an error of the sleep thresholds, not of the coupling.
+    d.settings.rigid.sleeping = false;
+    d.settings.soft.sleeping = false;
+    std::vector<BodyId> ids;
+    const std::unique_ptr<World> w = build_world(d, &ids);
+    std::vector<BodyId> dynamic;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (d.bodies[i].def.type == BodyType::Dynamic) dynamic.push_back(ids[i]);
+    const std::vector<SoftBodyId> soft = w->soft().bodies();
+
+    Recording r;
+    std::vector<double> ms;
+    ms.reserve(std::size_t(steps));
+    const auto sample = [&] {
+        std::vector<Vec3> rb, sn;
+        for (BodyId id : dynamic) rb.push_back(w->rigid().state().x[id.index]);
+        for (SoftBodyId id : soft) {
+            const Particles& p = w->soft().body(id).p;
+            sn.insert(sn.end(), p.x.begin(), p.x.end());
+        }
+        r.rigid.push_back(std::move(rb));
+        r.soft.push_back(std::move(sn));
+    };
+    for (int s = 0; s < steps && r.finite; ++s) {
+        double step_ms = 0;
+        for (int k = 0; k < v.divide && r.finite; ++k) {
+            const double t0 = bench::bench_clock_ms(bench::BenchClock::ThreadCpu);
+            w->step();
+            step_ms += bench::bench_clock_ms(bench::BenchClock::ThreadCpu) - t0;
+            r.finite = w->rigid().all_finite() && w->soft().all_finite();
+            r.max_penetration = std::max(r.max_penetration, double(w->rigid().max_penetration()));
+            for (const ParticleContact& c : w->soft().contacts()) r.max_penetration = std::max(r.max_penetration, double(c.depth));
+            for (const CouplingImpulse& c : w->coupling().impulses()) r.exchanged += c.impulse;
+            // Embedded, soft bodies push through their proxies' contacts.
+            if (v.strategy == CouplingStrategy::EmbedRigid)
+                for (const ContactManifold& c : w->rigid().contacts()) {
+                    const bool pa = !w->coupling().embedding().soft_of(w->rigid().id_of_slot(c.body_a)).is_null();
+                    const bool pb = !w->coupling().embedding().soft_of(w->rigid().id_of_slot(c.body_b)).is_null();
+                    if (pa == pb || w->rigid().slot_type(pa ? c.body_b : c.body_a) != BodyType::Dynamic) continue;
+                    // The normal points from A to B; B takes +n times the normal impulse.
+                    for (int k = 0; k < c.manifold.count; ++k)
+                        r.exchanged += (pa ? 1 : -1) * c.manifold.normal * c.manifold.points[k].total_normal_impulse;
+                }
+        }
+        ms.push_back(step_ms);
+        if (r.finite) sample();
+    }
+    r.ms_per_step_median = median(ms);
+    return r;
+}
+
+Errors errors_against(const Recording& run, const Recording& ref) {
+    Errors e;
+    const std::size_t samples = std::min(run.rigid.size(), ref.rigid.size());
+    double rigid_sum = 0, soft_sum = 0;
+    std::size_t rigid_n = 0, soft_n = 0;
+    for (std::size_t s = 0; s < samples; ++s) {
+        const bool last = s + 1 == samples;
+        for (std::size_t b = 0; b < run.rigid[s].size() && b < ref.rigid[s].size(); ++b) {
+            const double d = double((run.rigid[s][b] - ref.rigid[s][b]).norm());
+            rigid_sum += d * d;
+            ++rigid_n;
+            e.rigid_max = std::max(e.rigid_max, d);
+            if (last) e.final_max = std::max(e.final_max, d);
+        }
+        for (std::size_t i = 0; i < run.soft[s].size() && i < ref.soft[s].size(); ++i) {
+            const double d = double((run.soft[s][i] - ref.soft[s][i]).norm());
+            soft_sum += d * d;
+            ++soft_n;
+            e.soft_max = std::max(e.soft_max, d);
+            if (last) e.final_max = std::max(e.final_max, d);
+        }
+    }
+    e.rigid_rms = rigid_n ? std::sqrt(rigid_sum / double(rigid_n)) : 0;
+    e.soft_rms = soft_n ? std::sqrt(soft_sum / double(soft_n)) : 0;
+    e.position_rms = rigid_n + soft_n ? std::sqrt((rigid_sum + soft_sum) / double(rigid_n + soft_n)) : 0;
+    const double jref = double(ref.exchanged.norm());
+    e.exchanged = jref > 0 ? double((run.exchanged - ref.exchanged).norm()) / jref : 0;
+    return e;
+}
+
+}  // namespace sinew::tool::compare
