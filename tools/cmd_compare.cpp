@@ -104,7 +104,8 @@ void mark_pareto(std::vector<Row>& rows) {
 
 std::string mm(double m) {
     char b[32];
-    std::snprintf(b, sizeof b, m < 0.1 ? "%.2f" : "%.0f", m * 1000);
+    const double x = m * 1000;
+    std::snprintf(b, sizeof b, x < 0.1 ? "%.2g" : x < 100 ? "%.2f" : "%.0f", x);
     return b;
 }
 
@@ -183,7 +184,7 @@ std::vector<std::string> split_list(const std::string& s) {
 /// Compares one scene; returns its markdown section, or "" if nothing ran. Sets `all_finite`.
 std::string compare_scene(const std::string& path, const std::vector<Variant>& variants, int steps_arg,
                           const CouplingStrategy* reference_override, int reference_divide, const std::string& chart,
-                          const std::string& markdown, bool& all_finite) {
+                          const std::string& markdown, bool table, bool& all_finite) {
     const SceneDesc scene = parse_scene_file(path);
     const CouplingStrategy reference_strategy = reference_override ? *reference_override : scene.coupling.compare_reference;
     const int steps = steps_arg > 0 ? steps_arg : scene.steps;
@@ -205,7 +206,7 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
     cj["position_rms"] = round6(check.position_rms);
     cj["final_max"] = round6(check.final_max);
     cj["finite"] = finer.finite;
-    std::cout << cj.dump() << std::endl;
+    if (!table) std::cout << cj.dump() << std::endl;
 
     std::vector<Row> rows;
     for (const Variant& v : variants) {
@@ -222,7 +223,7 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
             j["variant"] = v.label();
             j["applies"] = false;
             j["why"] = e.what();
-            std::cout << j.dump() << std::endl;
+            if (!table) std::cout << j.dump() << std::endl;
             continue;
         }
         r.err = compare::errors_against(r.rec, reference);
@@ -230,14 +231,17 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
         rows.push_back(std::move(r));
     }
     mark_pareto(rows);
-    for (const Row& r : rows) std::cout << row_json(name, r).dump() << std::endl;
+    if (!table)
+        for (const Row& r : rows) std::cout << row_json(name, r).dump() << std::endl;
     bool charted = false;
     if (!chart.empty()) {
         charted = write_chart(name, rows, check.position_rms, chart);
         if (!charted) std::cerr << "sinew compare: gnuplot failed; no chart\n";
     }
     const std::string link = charted && !markdown.empty() ? bench::relative_to(chart, markdown) : "";
-    return markdown_table(name, ref.label(), check, rows, link);
+    const std::string md = markdown_table(name, ref.label(), check, rows, link);
+    if (table) std::cout << md;
+    return md;
 }
 
 int run_compare(const std::vector<std::string>& args) {
@@ -246,10 +250,11 @@ int run_compare(const std::vector<std::string>& args) {
     std::string chart, chart_dir, markdown, scene_dir = "demos/scenes";
     int steps = 0, reference_divide = 8;
     CouplingStrategy reference = CouplingStrategy::TwoWay;
-    bool all = false, reference_given = false;
+    bool all = false, reference_given = false, table = false;
     for (std::size_t i = 0; i < args.size(); ++i) {
         const std::string& a = args[i];
         if (a == "--all") all = true;
+        else if (a == "--table") table = true;
         else if (is_option(a, "--strategies")) strategies = split_list(option_value(args, i, "--strategies"));
         else if (is_option(a, "--steps")) steps = int(parse_int("--steps", option_value(args, i, "--steps"), 1, 1000000));
         else if (is_option(a, "--reference-divide"))
@@ -291,7 +296,7 @@ int run_compare(const std::vector<std::string>& args) {
         std::string png = chart;
         if (!chart_dir.empty()) png = chart_dir + "/compare-" + std::filesystem::path(path).stem().string() + ".png";
         body += compare_scene(path, variants, steps, reference_given ? &reference : nullptr, reference_divide, png,
-                              markdown, all_finite);
+                              markdown, table, all_finite);
     }
     if (!markdown.empty() && !bench::replace_section(markdown, "compare", body, "sinew compare --all")) {
         std::cerr << "sinew compare: could not write " << markdown << "\n";
@@ -320,6 +325,7 @@ extern const Command compare_command = {
     "  --all                  the comparison scenes of demos/scenes (--scene-dir DIR)\n"
     "  --chart FILE.png       error against time, Pareto front marked (gnuplot); --chart-dir DIR for --all\n"
     "  --markdown FILE.md     rewrite the compare section of FILE (docs/RESULTS.md)\n"
+    "  --table                print each scene's table (markdown) instead of the JSON lines\n"
     "Exit status: 0, 1 on a bad scene or output, 2 on bad arguments, 3 if a run was not finite.\n"};
 
 }  // namespace sinew::tool
