@@ -49,12 +49,12 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
             throw CouplingError("coupling pair " + std::to_string(k) + ": rigid body " + std::to_string(p.rigid.index) +
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
+    embedding_.update_membership(s);  // CouplingError (a body no proxy can be made of) changes nothing
     if (s.substeps != settings_.substeps) {
         soft_.set_substeps(s.substeps, [this](int j, Real) { before_soft_substep(j); });
         kinematics_.set_substeps(s.substeps);
     }
     settings_ = s;
-    embedding_.update_membership(settings_);
 }
 
 bool CouplingLayer::any(CouplingStrategy s) const {

@@ -53,6 +53,9 @@ public:
     /// contact (two-way rows and reactions sent back; the one-way contacts push nothing back).
     const std::vector<CouplingImpulse>& impulses() const { return impulses_; }
     OneWayCoupling& kinematics() { return kinematics_; }
+    /// Proxies follow soft bodies created, destroyed, pinned or attached since the last step now rather
+    /// than at the next step's start (RigidEmbedding::update_membership).
+    void refresh_embedding() { embedding_.update_membership(settings_); }
     /// Embedded soft bodies and their rigid proxies (strategy embed-rigid).
     RigidEmbedding& embedding() { return embedding_; }
     const RigidEmbedding& embedding() const { return embedding_; }

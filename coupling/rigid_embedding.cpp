@@ -1,6 +1,7 @@
 // Soft bodies embedded into the rigid solver as rigid proxies (coupling/rigid_embedding.hpp).
 #include "coupling/rigid_embedding.hpp"
 
+#include "coupling/coupling_layer.hpp"  // CouplingError
 #include "soft/soft_integrators.hpp"
 
 #include <algorithm>
@@ -9,6 +10,12 @@
 namespace sinew {
 
 namespace {
+bool all_finite(const std::vector<Vec3>& a) {
+    for (const Vec3& x : a)
+        if (!is_finite(x)) return false;
+    return true;
+}
+
 bool anchored(const SoftBody& b) {
     for (Real im : b.p.inv_mass)
         if (im == 0) return true;
@@ -51,6 +58,13 @@ BodyId RigidEmbedding::proxy(SoftBodyId id) const {
     return px.soft_generation == id.generation && rigid_.valid(px.body) ? px.body : BodyId{};
 }
 
+bool RigidEmbedding::is_proxy(BodyId rigid) const {
+    if (rigid.is_null()) return false;
+    for (const Proxy& px : proxies_)
+        if (px.body == rigid) return true;
+    return false;
+}
+
 SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
     if (rigid.is_null()) return {};
     for (std::uint32_t s = 0; s < proxies_.size(); ++s)
@@ -60,6 +74,15 @@ SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
 }
 
 void RigidEmbedding::update_membership(const CouplingSettings& settings) {
+    const auto wanted = [&](std::uint32_t s) {
+        if (s >= soft_.slot_count() || !soft_.slot_alive(s) || soft_.slot_body(s).p.size() == 0) return false;
+        return coupling_strategy_of(settings, soft_.id_of_slot(s), BodyId{}) == CouplingStrategy::EmbedRigid;
+    };
+    // Checked first, so that a body whose proxy cannot be made leaves everything as it was.
+    for (std::uint32_t s = 0; s < soft_.slot_count(); ++s)
+        if (wanted(s) && !all_finite(soft_.slot_body(s).p.x))
+            throw CouplingError("embed-rigid: soft body " + std::to_string(s) +
+                                " has a node position that is not finite: no rigid proxy can be made of it");
     settings_ = settings;
     if (proxies_.size() < soft_.slot_count()) proxies_.resize(soft_.slot_count());
     for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
@@ -67,13 +90,16 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
         const bool alive = s < soft_.slot_count() && soft_.slot_alive(s);
         const SoftBodyId id = alive ? soft_.id_of_slot(s) : SoftBodyId{};
         const bool same_body = alive && px.soft_generation == id.generation;
-        const bool want = alive && soft_.slot_body(s).p.size() > 0 &&
-                          coupling_strategy_of(settings, id, BodyId{}) == CouplingStrategy::EmbedRigid;
+        const bool want = wanted(s);
         const bool have = !px.body.is_null() && rigid_.valid(px.body) && same_body &&
                           px.anchored == anchored(soft_.slot_body(s));
         if (have && want) continue;
         if (!px.body.is_null() && rigid_.valid(px.body)) rigid_.destroy_body(px.body);
-        if (alive && same_body) soft_.slot_body(s).meets_colliders_through_proxy = false;
+        if (alive && same_body) {
+            SoftBody& b = soft_.slot_body(s);
+            b.meets_colliders_through_proxy = false;
+            b.sleeps_with_proxy = false;
+        }
         px = Proxy{};
         if (want) {
             px.soft_generation = id.generation;
@@ -85,7 +111,7 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
 BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
     SoftBody& b = soft_.slot_body(slot);
     Proxy& px = proxies_[slot];
-    const RigidProxyState st = measure_rigid_proxy(b.p.x, b.p.v, b.p.mass, b.p.x);  // rest: as it is now
+    const RigidProxyState st = measure_rigid_proxy(b.p.x, b.p.v, b.p.mass, b.p.x, b.def.thickness);  // rest: as it is now
     px.rest.resize(b.p.size());
     for (std::size_t i = 0; i < b.p.size(); ++i) px.rest[i] = b.p.x[i] - st.com;
     px.anchored = anchored(b);
@@ -103,6 +129,7 @@ BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
     def.allow_sleep = b.def.allow_sleep;  // the proxy's island decides; the soft body follows it
     px.body = rigid_.create_body(def);
     b.meets_colliders_through_proxy = true;
+    b.sleeps_with_proxy = !px.anchored;
     write(slot, px, b.p.x, b.p.v, true);
     return px.body;
 }
@@ -141,10 +168,11 @@ bool RigidEmbedding::stepping(std::uint32_t s) const {
            rigid_.valid(proxies_[s].body);
 }
 
-void RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+bool RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                            bool reshape) {
     SoftBody& b = soft_.slot_body(slot);
-    const RigidProxyState st = measure_rigid_proxy(x, v, b.p.mass, px.rest);
+    if (!all_finite(x) || !all_finite(v)) return false;  // diverged: SoftSystem::all_finite() tells
+    const RigidProxyState st = measure_rigid_proxy(x, v, b.p.mass, px.rest, b.def.thickness);
     const Quat q(st.rotation);
     if (reshape) {
         // The hull of the nodes in the proxy's frame (origin at the centre of mass). A flat body (a cloth)
@@ -172,30 +200,57 @@ void RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3
                 }
             hull = make_convex_hull(local);
         }
-        rigid_.reshape(px.body, hull, st.mass, Mat3(rt * st.inertia * st.rotation));
+        Mat3 inertia = rt * st.inertia * st.rotation;
+        inertia = Real(0.5) * (inertia + inertia.transpose()).eval();  // symmetric to rounding, as reshape checks
+        rigid_.reshape(px.body, hull, st.mass, inertia);
     }
     rigid_.place(px.body, Transform{st.com, q}, st.v, st.w);
     px.com0 = st.com;
     px.q0 = rigid_.state().q[px.body.index];
     px.inertia0 = st.inertia;
     momenta(px, px.p_written, px.l_written);
+    return true;
+}
+
+void RigidEmbedding::ignore_attachment_targets(const SoftBody& b, Proxy& px) {
+    std::vector<BodyId> now;
+    for (const Attachment& a : b.attachments) {
+        const BodyId target = unpack_body_id(a.target);
+        if (rigid_.valid(target) && target != px.body && std::find(now.begin(), now.end(), target) == now.end())
+            now.push_back(target);
+    }
+    for (const BodyId& old : px.ignored)
+        if (rigid_.valid(old) && std::find(now.begin(), now.end(), old) == now.end()) rigid_.ignore_pair(px.body, old, false);
+    for (const BodyId& t : now) rigid_.ignore_pair(px.body, t, true);
+    px.ignored = std::move(now);
 }
 
 void RigidEmbedding::begin_step(Real) {
-    update_membership(settings_);  // soft bodies created or destroyed since
+    try {
+        update_membership(settings_);  // soft bodies created, destroyed or pinned since
+    } catch (const CouplingError&) {
+        // A body diverged to non-finite nodes: its proxy stays as it was (SoftSystem::all_finite() tells).
+    }
     for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
         Proxy& px = proxies_[s];
-        if (px.body.is_null()) continue;
+        px.stepped = false;
+        if (px.body.is_null() || !rigid_.valid(px.body)) continue;
         SoftBody& b = soft_.slot_body(s);
         const SoftBodyId id = soft_.id_of_slot(s);
         // A dynamic proxy's rigid island decides when the body sleeps (a stack of embedded cubes sleeps as
-        // a rigid stack does): asleep with it, woken with it. An anchored body's kinematic proxy follows
-        // the soft system's own sleeping.
+        // a rigid stack does): asleep with it, woken with it; a body woken from outside (a force, a moved
+        // node) wakes the island. An anchored body's kinematic proxy follows the soft system's own sleeping.
         if (!px.anchored) {
             if (!rigid_.awake(px.body)) {
-                soft_.put_to_sleep(id);
-                continue;
+                if (b.awake && px.put_to_sleep) {
+                    rigid_.wake(px.body);
+                } else {
+                    soft_.put_to_sleep(id);
+                    px.put_to_sleep = true;
+                    continue;
+                }
             }
+            px.put_to_sleep = false;
             if (!b.awake) soft_.wake(id);
         } else if (!b.awake) {
             continue;
@@ -203,10 +258,7 @@ void RigidEmbedding::begin_step(Real) {
         take_changes(s, px, Into::Between, 0);  // impulses given to the proxy between steps
         // The proxy does not collide with what its body hangs on (a rope's hull would always overlap
         // the crate it is tied to), as joined bodies do not by default.
-        for (const Attachment& a : b.attachments) {
-            const BodyId target = unpack_body_id(a.target);
-            if (rigid_.valid(target) && target != px.body) rigid_.ignore_pair(px.body, target, true);
-        }
+        ignore_attachment_targets(b, px);
         write(s, px, b.p.x, b.p.v, true);
     }
 }
@@ -218,6 +270,7 @@ void RigidEmbedding::after_soft_predict(Real h) {
         if (!stepping(s)) continue;
         Proxy& px = proxies_[s];
         SoftBody& b = soft_.slot_body(s);
+        px.stepped = true;
         // Solvers other than the soft step have given the proxy its gravity in their IntegrateVelocities
         // (before this): the nodes have it from their own step.
         const Vec3 fall = h * b.def.gravity_scale * rigid_.settings().gravity * rigid_.mass(px.body);
@@ -282,9 +335,16 @@ void RigidEmbedding::after_rigid_positions(Real h) {
 
 void RigidEmbedding::end_step() {
     for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
-        if (proxies_[s].body.is_null() || !soft_.slot_alive(s) || !rigid_.valid(proxies_[s].body)) continue;
+        Proxy& px = proxies_[s];
+        if (px.body.is_null() || !soft_.slot_alive(s) || !rigid_.valid(px.body)) continue;
+        if (!px.stepped) {
+            // Its soft body did not step, but an awake body may have woken the proxy inside the rigid step
+            // and pushed it: the soft body wakes, and the next step gives the nodes that change.
+            if (!px.anchored && rigid_.awake(px.body)) soft_.wake(soft_.id_of_slot(s));
+            continue;
+        }
         SoftBody& b = soft_.slot_body(s);
-        write(s, proxies_[s], b.p.x, b.p.v, false);
+        write(s, px, b.p.x, b.p.v, false);
     }
 }
 

@@ -49,8 +49,13 @@ public:
     RigidEmbedding& operator=(const RigidEmbedding&) = delete;
 
     /// Creates the proxies of the soft bodies `settings` embeds that have none, destroys those of bodies
-    /// that are gone or no longer embedded (their joints with them). Runs at every step's start too.
+    /// that are gone or no longer embedded (their joints with them), and makes anew those whose body
+    /// gained or lost its last pin. Runs at every step's start too; call it after creating, destroying or
+    /// pinning soft bodies for the proxies to follow at once. Throws CouplingError naming a soft body
+    /// whose proxy cannot be made (a node that is not finite) before creating anything.
     void update_membership(const CouplingSettings& settings);
+    /// Is `rigid` a proxy this layer made (its soft body may be gone since the last update)?
+    bool is_proxy(BodyId rigid) const;
     /// The proxy of soft body `id`, or a null id if it is not embedded.
     BodyId proxy(SoftBodyId id) const;
     /// The soft body whose proxy `rigid` is, or a null id.
@@ -73,6 +78,9 @@ private:
         Quat q0 = Quat::Identity();  ///< the proxy's orientation when last written
         Mat3 inertia0 = Mat3::Zero();  ///< the nodes' inertia at x_n (world): the Δω of an angular impulse
         Vec3 p_written = Vec3::Zero(), l_written = Vec3::Zero();  ///< the proxy's momenta as last written
+        bool stepped = false;       ///< its soft body stepped this step (measured after its prediction)
+        bool put_to_sleep = false;  ///< this layer put the soft body to sleep with the proxy's island
+        std::vector<BodyId> ignored;  ///< bodies its soft body is attached to (no collision with them)
     };
     void begin_step(Real h);
     void after_soft_predict(Real h);
@@ -89,8 +97,12 @@ private:
     void take_changes(std::uint32_t slot, Proxy& px, Into into, Real h);
     /// The soft body of proxy slot s, if it steps this step.
     bool stepping(std::uint32_t s) const;
-    /// Writes pose (and with `reshape` the hull, mass and inertia) and velocity from the nodes.
-    void write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v, bool reshape);
+    /// Writes pose (and with `reshape` the hull, mass and inertia) and velocity from the nodes. Nodes that
+    /// are not finite (a diverged body) leave the proxy as it was: false.
+    bool write(std::uint32_t slot, Proxy& px, const std::vector<Vec3>& x, const std::vector<Vec3>& v, bool reshape);
+    /// The proxy does not collide with the bodies its soft body is attached to, and again with those it
+    /// no longer is.
+    void ignore_attachment_targets(const SoftBody& b, Proxy& px);
     BodyId create_proxy(std::uint32_t slot);
 
     Pipeline& pipeline_;

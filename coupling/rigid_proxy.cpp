@@ -7,8 +7,16 @@
 namespace sinew {
 
 Mat3 polar_rotation(const Mat3& a) {
-    const Eigen::Matrix3d ad = a.cast<double>();
+    Eigen::Matrix3d ad = a.cast<double>();
     Eigen::JacobiSVD<Eigen::Matrix3d> svd(ad, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Vector3d sv = svd.singularValues();
+    if (sv(2) < 1e-6 * sv(0)) {
+        // Rank-deficient (a rope, a flat cloth): the rotation about the missing directions is free, and
+        // the SVD's null vectors would pick one at random from step to step. A small multiple of the
+        // identity resolves it towards no turn.
+        ad.diagonal().array() += 1e-6 * sv(0);
+        svd.compute(ad, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    }
     Eigen::Matrix3d u = svd.matrixU();
     const Eigen::Matrix3d vt = svd.matrixV().transpose();
     // A reflection (a flattened or inverted shape) becomes the nearest rotation by turning the axis of
@@ -18,7 +26,7 @@ Mat3 polar_rotation(const Mat3& a) {
 }
 
 RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                                    const std::vector<Real>& mass, const std::vector<Vec3>& rest) {
+                                    const std::vector<Real>& mass, const std::vector<Vec3>& rest, Real radius) {
     // Sums in double: a few thousand float nodes summed in float lose the round-off the tests compare at.
     const std::size_t n = x.size();
     double m_total = 0;
@@ -48,8 +56,8 @@ RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vecto
     // only the first is singular; raise the smallest principal moment to 1e-3 of the largest there.
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(inertia);
     const Eigen::Vector3d moments = eig.eigenvalues();
-    const double floor = 1e-3 * moments(2);
-    if (moments(0) < floor) {
+    const double floor = std::max(1e-3 * moments(2), 0.4 * m_total * double(radius) * double(radius));
+    if (moments(0) < floor && floor > 0) {
         Eigen::Vector3d raised = moments.cwiseMax(floor);
         inertia = eig.eigenvectors() * raised.asDiagonal() * eig.eigenvectors().transpose();
         out.regularised = true;

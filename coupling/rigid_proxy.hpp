@@ -25,18 +25,23 @@ struct RigidProxyState {
     Mat3 rotation = Mat3::Identity();
     Vec3 momentum = Vec3::Zero();          ///< Σ m_i v_i
     Vec3 angular_momentum = Vec3::Zero();  ///< Σ m_i r_i × v_i, about com
-    /// A set of nodes with no extent along some axis (a rope, a flat cloth) has an inertia singular about
-    /// it; the smallest principal moment is then raised to this fraction of the largest, and the proxy
-    /// no longer turns exactly as its nodes do about that axis (set > 0 only then).
+    /// A set of nodes with no extent along some axis (a rope) has an inertia singular about it: the
+    /// smallest principal moment is then raised to 1e-3 of the largest, or to that of a ball of the
+    /// nodes' radius (a single node), and the proxy no longer turns exactly as its nodes do about that
+    /// axis. True when that happened.
     bool regularised = false;
 };
 
 /// The proxy of the nodes `x` with velocities `v`, masses `mass` and rest offsets `rest` (all the same
-/// length, masses > 0 in total).
+/// length, masses > 0 in total); `radius` (the nodes' collision radius) bounds the smallest moment from
+/// below, 2/5 M radius², so even a single node has an invertible inertia.
 RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                                    const std::vector<Real>& mass, const std::vector<Vec3>& rest);
+                                    const std::vector<Real>& mass, const std::vector<Vec3>& rest, Real radius = 0);
 
 /// The rotation of the polar decomposition of a 3x3 matrix (a proper rotation: det +1), computed in double.
+/// A rank-deficient matrix (the nodes of a rope or a flat cloth) leaves the rotation about the missing
+/// directions free: 1e-6 of its largest singular value is added to the diagonal first, so that freedom resolves towards
+/// no turn rather than to whatever the SVD's null vectors happen to be.
 Mat3 polar_rotation(const Mat3& a);
 
 }  // namespace sinew

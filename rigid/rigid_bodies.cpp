@@ -217,6 +217,7 @@ void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& 
     inv_inertia_local_[s] = inertia.inverse();
     const Real k = inertia.trace() / 3;
     spherical_inertia_[s] = (inertia - k * Mat3::Identity()).cwiseAbs().maxCoeff() <= Real(1e-6) * std::abs(k) ? 1 : 0;
+    if (!awake_[s]) wake_island(s);  // its cached contacts are stale: the island is detected afresh
     if (state_.inv_mass[s] != 0) {  // moving in this step's solve: the new mass acts now
         const Mat3 r = state_.q[s].toRotationMatrix();
         state_.inv_mass[s] = body_inv_mass_[s];

@@ -122,6 +122,7 @@ void RigidSystem::detect_collisions(Real h) {
 void RigidSystem::ignore_pair(BodyId a, BodyId b, bool ignore) {
     check(a, "ignore_pair");
     check(b, "ignore_pair");
+    if (a == b) throw RigidError("ignore_pair: a body never collides with itself (both ids are index " + std::to_string(a.index) + ")");
     const std::uint64_t key = a.index < b.index ? pair_key(a.index, b.index) : pair_key(b.index, a.index);
     auto it = std::lower_bound(ignored_pairs_.begin(), ignored_pairs_.end(), key);
     const bool there = it != ignored_pairs_.end() && *it == key;

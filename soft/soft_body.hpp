@@ -180,6 +180,9 @@ struct SoftBody {
     /// Set by a coupling layer (embedding, coupling/rigid_embedding.hpp): the body meets the colliders
     /// through its rigid proxy only, so its own contact pass has no colliders.
     bool meets_colliders_through_proxy = false;
+    /// Set by the same layer for a body whose proxy is dynamic: the proxy's rigid island decides when the
+    /// body sleeps (SoftSystem::put_to_sleep), not the soft system's own thresholds.
+    bool sleeps_with_proxy = false;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

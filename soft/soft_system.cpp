@@ -446,7 +446,7 @@ void SoftSystem::integrate_positions(Real h) {
 }
 
 void SoftSystem::update_sleep(SoftBody& b, Real h) {
-    if (!settings_.sleeping || !b.def.allow_sleep) {
+    if (!settings_.sleeping || !b.def.allow_sleep || b.sleeps_with_proxy) {
         b.sleep_timer = 0;
         return;
     }

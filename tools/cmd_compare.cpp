@@ -62,7 +62,13 @@ struct Row {
     bool pareto = false;
 };
 
-double round6(double x) { return std::isfinite(x) ? std::round(x * 1e6) / 1e6 : x; }
+/// Six significant digits (a 4 um error and a 4 m one keep theirs alike).
+double round6(double x) {
+    if (!std::isfinite(x) || x == 0) return x;
+    char b[32];
+    std::snprintf(b, sizeof b, "%.6g", x);
+    return std::strtod(b, nullptr);
+}
 
 nlohmann::json row_json(const std::string& scene, const Row& r) {
     nlohmann::json j;
@@ -73,14 +79,17 @@ nlohmann::json row_json(const std::string& scene, const Row& r) {
     j["substeps"] = r.variant.substeps;
     j["gain"] = round6(double(r.variant.gain));
     j["divide"] = r.variant.divide;
+    j["applies"] = true;
     j["ms_per_step_median"] = round6(r.rec.ms_per_step_median);
-    j["position_rms"] = round6(r.err.position_rms);
-    j["rigid_rms"] = round6(r.err.rigid_rms);
-    j["rigid_max"] = round6(r.err.rigid_max);
-    j["soft_rms"] = round6(r.err.soft_rms);
-    j["soft_max"] = round6(r.err.soft_max);
-    j["final_max"] = round6(r.err.final_max);
-    j["exchanged_error"] = round6(r.err.exchanged);
+    // A run that diverged has no error to speak of (the figures would cover its finite start only).
+    const auto error = [&](double x) { return r.rec.finite ? nlohmann::json(round6(x)) : nlohmann::json(nullptr); };
+    j["position_rms"] = error(r.err.position_rms);
+    j["rigid_rms"] = error(r.err.rigid_rms);
+    j["rigid_max"] = error(r.err.rigid_max);
+    j["soft_rms"] = error(r.err.soft_rms);
+    j["soft_max"] = error(r.err.soft_max);
+    j["final_max"] = error(r.err.final_max);
+    j["exchanged_error"] = error(r.err.exchanged);
     j["max_penetration"] = round6(r.rec.max_penetration);
     j["pareto"] = r.pareto;
     j["finite"] = r.rec.finite;
@@ -215,8 +224,9 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
         r.variant = v;
         try {
             r.rec = compare::run_variant(scene, v, steps);
-        } catch (const SceneError& e) {
-            // A strategy the scene cannot run (a joint on a soft body needs it embedded): said, not run.
+        } catch (const std::exception& e) {
+            // A strategy the scene cannot run (a joint on a soft body needs it embedded; a world the
+            // strategy refuses): said, not run.
             nlohmann::json j;
             j["suite"] = "compare";
             j["scene"] = name;

@@ -103,6 +103,7 @@ sinew_status begin_create(const char* fn, sinew_world_id world, const sinew_soft
 
 sinew_status finish_create(World* w, sinew_world_id world, SoftBodyDef def, sinew_soft_body_id* out) {
     const SoftBodyId id = w->soft().create_body(std::move(def));  // SoftError: nothing was created
+    w->coupling().refresh_embedding();  // an embedded body has its proxy at once
     *out = {pack_world(world), id.index, id.generation};
     return SINEW_OK;
 }
@@ -334,6 +335,7 @@ sinew_status sinew_soft_destroy(sinew_soft_body_id body) {
         Target t = target(body, fn, true);
         if (t.status) return t.status;
         t.world->soft().destroy_body(t.body);
+        t.world->coupling().refresh_embedding();  // its proxy and the proxy's joints go with it
         return SINEW_OK;
     });
 }
@@ -376,6 +378,7 @@ sinew_status sinew_soft_set_pinned(sinew_soft_body_id body, int particle, int pi
         if (t.world->soft().attached(t.body, i))
             return invalid(fn, "particle = " + std::to_string(particle) + " is attached to a rigid body; detach it first");
         t.world->soft().set_pinned(t.body, i, pinned == 1);
+        t.world->coupling().refresh_embedding();  // a first or last pin changes an embedded body's proxy
         return SINEW_OK;
     });
 }
@@ -398,6 +401,7 @@ sinew_status sinew_soft_attach(sinew_soft_body_id body, int particle, sinew_body
                                                   "} is null or destroyed");
         if (!finite(local_point)) return invalid(fn, "local_point = " + vec_text(local_point) + " must be finite");
         t.world->soft().attach(t.body, static_cast<std::uint32_t>(particle), pack_body_id(rb), to_vec(local_point));
+        t.world->coupling().refresh_embedding();
         return SINEW_OK;
     });
 }
@@ -412,6 +416,7 @@ sinew_status sinew_soft_detach(sinew_soft_body_id body, int particle) {
         if (!t.world->soft().attached(t.body, i))
             return invalid(fn, "particle = " + std::to_string(particle) + " is not attached");
         t.world->soft().detach(t.body, i);
+        t.world->coupling().refresh_embedding();
         return SINEW_OK;
     });
 }

@@ -456,7 +456,9 @@ typedef enum sinew_coupling {
 SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain);
 SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
 /** The rigid proxy of an embedded soft body (SINEW_COUPLING_EMBED_RIGID), a rigid body that joints accept
- *  as either body (its frame: the soft body's rest shape, origin at its centre of mass when embedded);
+ *  as either body (its frame: the world's turned to no angle and moved to the nodes' centre of mass as they
+ *  were when the proxy was made). Pinning or attaching a first node, or freeing the last, makes the proxy
+ *  anew (a kinematic one while any node is held): its old handle and joints are gone then;
  *  SINEW_ERROR_INVALID_ARGUMENT if the soft body is not embedded. */
 SINEW_API sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:

@@ -74,6 +74,9 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
     for (const SceneJoint& joint : scene.joints) {
         if (!joint.soft_a && !joint.soft_b) continue;
         JointDef def = joint.def;
+        // The file's zero (reference_rotation, if given) is in the same frames: a proxy made turned by q
+        // (a rope's, whose rotation about its axis is free) turns it to q^-1 ref for A, ref q for B.
+        const bool zero_given = def.reference_rotation.coeffs().squaredNorm() > 0;
         const auto end = [&](bool soft, std::size_t index, Vec3& anchor, Vec3* axis) {
             if (!soft) return out.at(index);
             const SceneSoftBody& sb = scene.soft_bodies.at(index);
@@ -86,6 +89,9 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
             const Transform xf = world->rigid().transform(proxy);
             anchor = xf.apply_inverse(anchor);
             if (axis) *axis = xf.q.conjugate() * *axis;
+            if (zero_given)
+                def.reference_rotation = axis ? Quat(xf.q.conjugate() * def.reference_rotation)
+                                              : Quat(def.reference_rotation * xf.q);
             return proxy;
         };
         def.body_a = end(joint.soft_a, joint.body_a, def.local_anchor_a, &def.local_axis_a);

@@ -559,12 +559,12 @@ private:
         const std::string& name = ref.string();
         auto it = index_of.find(name);
         soft = false;
-        if (it == index_of.end()) {
-            auto s = soft_index_of_.find(name);
-            if (s != soft_index_of_.end()) {
-                soft = true;
-                return s->second;
-            }
+        auto s = soft_index_of_.find(name);
+        if (it != index_of.end() && s != soft_index_of_.end())
+            ref.fail("\"" + name + "\" names both a rigid body and a soft body: a joint cannot tell which");
+        if (it == index_of.end() && s != soft_index_of_.end()) {
+            soft = true;
+            return s->second;
         }
         if (it == index_of.end())
             ref.fail("unknown body \"" + name + "\"" +
@@ -610,6 +610,11 @@ private:
         const SceneBody& b = sj.soft_b ? soft_b : desc_.bodies[sj.body_b];
         if (sj.body_a == sj.body_b && sj.soft_a == sj.soft_b)
             ref_b.fail("body_b must differ from body_a (both are \"" + a.name + "\")");
+        // A soft body's frame is the world's: its origin is nowhere in particular, so its anchor is given.
+        if (sj.soft_a && !n.find("anchor_a"))
+            n.fail("anchor_a is required when body_a is a soft body (\"" + a.name + "\"): a world point");
+        if (sj.soft_b && type == JointType::Distance && !n.find("anchor_b"))
+            n.fail("anchor_b is required for a distance joint whose body_b is a soft body (\"" + b.name + "\"): a world point");
         if (a.def.type != BodyType::Dynamic && b.def.type != BodyType::Dynamic)
             n.fail("a joint needs at least one dynamic body; \"" + a.name + "\" is " + body_type_name_lower(a.def.type) +
                    " and \"" + b.name + "\" is " + body_type_name_lower(b.def.type));

@@ -377,7 +377,7 @@ std::string scene_text(const World& world, const std::string& name, const std::s
     const auto soft_of = [&](BodyId id) { return embedding.count() ? embedding.soft_of(id) : SoftBodyId{}; };
     Json bodies = Json::array();
     for (std::uint32_t s = 0; s < rigid.slot_count(); ++s)
-        if (rigid.slot_alive(s) && soft_of(rigid.id_of_slot(s)).is_null())
+        if (rigid.slot_alive(s) && !embedding.is_proxy(rigid.id_of_slot(s)))
             bodies.push_back(body_json(rigid, rigid.id_of_slot(s), shared));
     doc["bodies"] = std::move(bodies);
 
@@ -416,6 +416,8 @@ std::string scene_text(const World& world, const std::string& name, const std::s
     Json pairs = Json::array();
     for (const CouplingPair& p : c.pairs) {
         if (!world.soft().valid(p.soft) || (!p.rigid.is_null() && !rigid.valid(p.rigid))) continue;
+        if (embedding.is_proxy(p.rigid))  // a pair with a proxy: the proxy is not written, the pair is moot
+            continue;
         Json j = {{"soft", "soft-" + std::to_string(p.soft.index)}, {"strategy", coupling_strategy_name(p.strategy)}};
         if (!p.rigid.is_null()) j["rigid"] = body_name(p.rigid.index);
         pairs.push_back(std::move(j));

@@ -152,10 +152,21 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
 Json soft_bodies_json(const World& world, const std::string& origin) {
     const SoftSystem& soft = world.soft();
     Json out = Json::array();
-    for (std::uint32_t s = 0; s < soft.slot_count(); ++s)
+    for (std::uint32_t s = 0; s < soft.slot_count(); ++s) {
+        if (!soft.slot_alive(s)) continue;
+        // A particle attached to an embedded soft body's proxy: the proxy is not written (the coupling
+        // section makes it again), so nothing in the file could name it.
+        const std::vector<Attachment>& att = soft.slot_body(s).attachments;
+        for (std::size_t k = 0; k < att.size(); ++k)
+            if (world.coupling().embedding().is_proxy(unpack_body_id(att[k].target)))
+                throw SceneError(origin, "/soft_bodies/" + std::to_string(out.size()) + "/attachments/" + std::to_string(k),
+                                 "particle " + std::to_string(att[k].particle) +
+                                     " is attached to the rigid proxy of an embedded soft body, which a scene file "
+                                     "cannot name (attach it to a rigid body, or join the bodies with a joint)");
         if (soft.slot_alive(s))
             out.push_back(soft_body_json(world.rigid(), soft.slot_body(s), s, "/soft_bodies/" + std::to_string(out.size()),
                                          origin));
+    }
     return out;
 }
 
