@@ -290,23 +290,27 @@ void RigidEmbedding::after_soft_predict(Real h) {
             const Vec3 dv = fall / rigid_.mass(px.body);
             for (Vec3& vi : v) vi -= dv;
         }
-        write(s, px, b.p.x, v, false);
+        if (!write(s, px, b.p.x, v, false)) {  // diverged: the rigid solve's changes are not given back
+            px.stepped = false;
+            continue;
+        }
         if (!px.anchored && fall_in_solve) px.p_written += fall;
     }
 }
 
 void RigidEmbedding::after_rigid_solve(Real h) {
     for (std::uint32_t s = 0; s < proxies_.size(); ++s)
-        if (stepping(s)) take_changes(s, proxies_[s], Into::Predicted, h);
+        if (stepping(s) && proxies_[s].stepped) take_changes(s, proxies_[s], Into::Predicted, h);
 }
 
 void RigidEmbedding::after_rigid_positions(Real h) {
     const RigidSystem::State& st = rigid_.state();
     for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
-        if (!stepping(s)) continue;
+        if (!stepping(s) || !proxies_[s].stepped) continue;
         Proxy& px = proxies_[s];
         take_changes(s, px, Into::Solved, h);  // the soft step's relax and restitution, layers' reactions
-        if (px.anchored) continue;        // Where the proxy went against where its final velocity alone takes it from where it was written:
+        if (px.anchored) continue;
+        // Where the proxy went against where its final velocity alone takes it from where it was written:
         // the rigid solve's position work (the soft step's biased sub-steps, split impulses' pseudo-
         // velocities, joint projection). The nodes' end-of-step positions take the same rigid displacement
         // about their centre of mass, so the soft body ends where its proxy did.
