@@ -118,7 +118,7 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     const bool contacts_known = b.contact_owner.size() == b.p.size() && b.contact_normal.size() == b.p.size();
     if (!contacts_known && b.attachments.empty()) return;
     const RigidSystem::State& st = rigid_.state();
-    const bool gravity_pending = rigid_.settings().solver == RigidSolverKind::SoftStep;
+    const bool gravity_pending = rigid_.gravity_in_solve();
     share_count_.resize(rigid_.slot_count());
     if (slip_.size() <= slot) slip_.resize(slot + 1);
     std::vector<std::uint8_t>& slip = slip_[slot];

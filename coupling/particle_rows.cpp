@@ -125,7 +125,7 @@ void ParticleRows::add_attachment_rows(const RigidSystem& sys, std::uint32_t slo
         // Its own weight a sub-step at a time, as the free particles', where the rigid solver adds gravity
         // per sub-step (the soft step); the others have added this step's already to the body's velocity,
         // which the particle starts from.
-        p.gravity_part = sys.settings().solver == RigidSolverKind::SoftStep ? Vec3(b.gravity * step_.h) : Vec3::Zero();
+        p.gravity_part = sys.gravity_in_solve() ? Vec3(b.gravity * step_.h) : Vec3::Zero();
         p.v = st.v[o] + st.w[o].cross(r.arm) + p.gravity_part;
         p.v_ref = p.v;
         p.v_handed = p.v;

@@ -58,19 +58,19 @@ BodyId RigidEmbedding::proxy(SoftBodyId id) const {
     return px.soft_generation == id.generation && rigid_.valid(px.body) ? px.body : BodyId{};
 }
 
-bool RigidEmbedding::is_proxy(BodyId rigid) const {
-    if (rigid.is_null()) return false;
-    for (const Proxy& px : proxies_)
-        if (px.body == rigid) return true;
-    return false;
+std::uint32_t RigidEmbedding::proxy_slot(BodyId rigid) const {
+    if (rigid.is_null() || rigid.index >= soft_slot_of_rigid_.size()) return kNoSoft;
+    const std::uint32_t s = soft_slot_of_rigid_[rigid.index];
+    // The whole id, generation included: a stale entry (the rigid slot reused by another body) differs.
+    return s < proxies_.size() && proxies_[s].body == rigid ? s : kNoSoft;
 }
 
+bool RigidEmbedding::is_proxy(BodyId rigid) const { return proxy_slot(rigid) != kNoSoft; }
+
 SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
-    if (rigid.is_null()) return {};
-    for (std::uint32_t s = 0; s < proxies_.size(); ++s)
-        if (proxies_[s].body == rigid && soft_.slot_alive(s) && soft_.id_of_slot(s).generation == proxies_[s].soft_generation)
-            return soft_.id_of_slot(s);
-    return {};
+    const std::uint32_t s = proxy_slot(rigid);
+    if (s == kNoSoft || !soft_.slot_alive(s) || soft_.id_of_slot(s).generation != proxies_[s].soft_generation) return {};
+    return soft_.id_of_slot(s);
 }
 
 void RigidEmbedding::update_membership(const CouplingSettings& settings) {
@@ -95,6 +95,7 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
                           px.anchored == anchored(soft_.slot_body(s));
         if (have && want) continue;
         if (!px.body.is_null() && rigid_.valid(px.body)) rigid_.destroy_body(px.body);
+        if (proxy_slot(px.body) == s) soft_slot_of_rigid_[px.body.index] = kNoSoft;
         if (alive && same_body) {
             SoftBody& b = soft_.slot_body(s);
             b.meets_colliders_through_proxy = false;
@@ -128,6 +129,8 @@ BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
     def.gravity_scale = b.def.gravity_scale;
     def.allow_sleep = b.def.allow_sleep;  // the proxy's island decides; the soft body follows it
     px.body = rigid_.create_body(def);
+    if (soft_slot_of_rigid_.size() <= px.body.index) soft_slot_of_rigid_.resize(px.body.index + 1, kNoSoft);
+    soft_slot_of_rigid_[px.body.index] = slot;
     b.meets_colliders_through_proxy = true;
     b.sleeps_with_proxy = !px.anchored;
     write(slot, px, b.p.x, b.p.v, true);
@@ -271,10 +274,10 @@ void RigidEmbedding::after_soft_predict(Real h) {
         Proxy& px = proxies_[s];
         SoftBody& b = soft_.slot_body(s);
         px.stepped = true;
-        // Solvers other than the soft step have given the proxy its gravity in their IntegrateVelocities
-        // (before this): the nodes have it from their own step.
+        // Solvers that integrate in IntegrateVelocities have given the proxy its gravity there (before
+        // this): the nodes have it from their own step.
         const Vec3 fall = h * b.def.gravity_scale * rigid_.settings().gravity * rigid_.mass(px.body);
-        const bool fall_in_solve = rigid_.settings().solver == RigidSolverKind::SoftStep;
+        const bool fall_in_solve = rigid_.gravity_in_solve();
         if (!px.anchored && !fall_in_solve) px.p_written += fall;
         take_changes(s, px, Into::Predicted, h);  // Newtonian impulses' collision passes
         std::vector<Vec3>& v = scratch_v_;
@@ -285,8 +288,8 @@ void RigidEmbedding::after_soft_predict(Real h) {
         for (std::uint32_t i = 0; i < v.size(); ++i)
             v[i] = ((liu ? fast_mass_spring_target(b, i, h) : b.p.x_next[i]) - b.p.x[i]) / h;
         if (!px.anchored && fall_in_solve) {
-            // The soft step adds the step's gravity a sub-step at a time: the proxy starts without it,
-            // and what the solve adds is not a change to give the nodes.
+            // The solver adds the step's gravity a sub-step at a time (the soft step): the proxy starts
+            // without it, and what the solve adds is not a change to give the nodes.
             const Vec3 dv = fall / rigid_.mass(px.body);
             for (Vec3& vi : v) vi -= dv;
         }
@@ -321,19 +324,18 @@ void RigidEmbedding::after_rigid_positions(Real h) {
         SoftBody& b = soft_.slot_body(s);
         Particles& p = b.p;
         // The nodes' end-of-step positions: x_next + h (v - v_solved) (SoftSystem::integrate_positions).
+        std::vector<Vec3>& y = scratch_x_;
+        y.resize(p.size());
         double m_total = 0;
         Eigen::Vector3d cm = Eigen::Vector3d::Zero();
         for (std::size_t i = 0; i < p.size(); ++i) {
-            const Vec3 y = p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
+            y[i] = p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
             m_total += p.mass[i];
-            cm += double(p.mass[i]) * y.cast<double>();
+            cm += double(p.mass[i]) * y[i].cast<double>();
         }
         const Vec3 c = (cm / m_total).cast<Real>();
-        for (std::size_t i = 0; i < p.size(); ++i) {
-            if (p.inv_mass[i] == 0) continue;
-            const Vec3 y = p.x_next[i] + h * (p.v[i] - p.v_solved[i]);
-            p.x_next[i] += c + turn * (y - c) + shift - y;
-        }
+        for (std::size_t i = 0; i < p.size(); ++i)
+            if (p.inv_mass[i] != 0) p.x_next[i] += c + turn * (y[i] - c) + shift - y[i];
     }
 }
 

@@ -1,13 +1,16 @@
 // Embedding soft bodies into the rigid solver (strategy embed-rigid; Fishman 2012, seed 001 ch.4 §2 and
-// ch.5 §7): each embedded soft body has one dynamic rigid body, its proxy (coupling/rigid_proxy.hpp),
-// that meets every other rigid body, proxy and joint inside the rigid solver as a native body would.
+// ch.5 §7): each embedded soft body has one rigid body, its proxy (coupling/rigid_proxy.hpp), dynamic
+// (kinematic if the body is anchored, below), that meets every other rigid body, proxy and joint inside
+// the rigid solver as a native body would.
 // The soft body's own step still runs in the soft system (its springs, pressure, elements, gravity);
 // its own contact pass meets no collider (SoftBody::meets_colliders_through_proxy).
 //
 // Where it acts in the step (docs/ARCHITECTURE.md, the step pipeline):
 //  - before rigid IntegrateVelocities: the proxy is measured from the nodes at x_n: mass, centre of mass,
 //    Steiner inertia, rotation, the convex hull of the nodes in its frame (RigidSystem::reshape), and
-//    its velocity from their momentum and angular momentum. It takes no gravity of its own;
+//    its velocity from their momentum and angular momentum. It falls under the rigid solver's gravity
+//    (the soft body's gravity scale), counted so that the nodes, which take theirs in their own step, do
+//    not get it twice (RigidSystem::gravity_in_solve);
 //  - after soft IntegrateVelocities: its velocity is measured again from the nodes' predicted motion
 //    ((x_next - x_n) / h: gravity, internal forces), before the rigid broad phase and the solve see it;
 //  - after rigid SolveVelocities, and after rigid IntegratePositions (the soft step's relax, split
@@ -58,8 +61,31 @@ public:
     bool is_proxy(BodyId rigid) const;
     /// The proxy of soft body `id`, or a null id if it is not embedded.
     BodyId proxy(SoftBodyId id) const;
-    /// The soft body whose proxy `rigid` is, or a null id.
+    /// The soft body whose proxy `rigid` is, or a null id. Constant time (tools call it per manifold).
     SoftBodyId soft_of(BodyId rigid) const;
+    /// One contact point of the last rigid step between a proxy and a body that is not a proxy (contacts
+    /// between two proxies are left out: neither is a body the soft bodies push from outside).
+    struct ProxyContact {
+        std::uint32_t body = 0;       ///< the other body's slot
+        SoftBodyId soft;              ///< the soft body whose proxy it is
+        Vec3 normal = Vec3::UnitY();  ///< unit, from the proxy into `body`
+        Real impulse = 0;             ///< the point's total normal impulse (N s): `body` took normal * impulse
+    };
+    /// Calls f(const ProxyContact&) for every such point of RigidSystem::contacts(), in their order: the
+    /// impulses embedded soft bodies gave other bodies through their proxies (tools sum what they need).
+    template <class F>
+    void for_each_proxy_contact(F&& f) const {
+        for (const ContactManifold& c : rigid_.contacts()) {
+            const SoftBodyId sa = soft_of(rigid_.id_of_slot(c.body_a)), sb = soft_of(rigid_.id_of_slot(c.body_b));
+            if (sa.is_null() == sb.is_null()) continue;
+            // The manifold's normal points from A to B: B takes +n times the normal impulse.
+            const bool proxy_a = !sa.is_null();
+            const Vec3 normal = proxy_a ? c.manifold.normal : Vec3(-c.manifold.normal);
+            for (int k = 0; k < c.manifold.count; ++k)
+                f(ProxyContact{proxy_a ? c.body_b : c.body_a, proxy_a ? sa : sb, normal,
+                               c.manifold.points[k].total_normal_impulse});
+        }
+    }
     /// How many soft bodies are embedded now.
     std::size_t count() const;
     /// Relative flatness of the proxies' hulls (make_convex_hull): points within it x the diagonal of a
@@ -78,7 +104,10 @@ private:
         Quat q0 = Quat::Identity();  ///< the proxy's orientation when last written
         Mat3 inertia0 = Mat3::Zero();  ///< the nodes' inertia at x_n (world): the Δω of an angular impulse
         Vec3 p_written = Vec3::Zero(), l_written = Vec3::Zero();  ///< the proxy's momenta as last written
-        bool stepped = false;       ///< its soft body stepped this step (measured after its prediction)
+        /// Its soft body stepped this step and the proxy was written from its prediction. Not the body's
+        /// `stepping`: a body whose nodes diverged steps without it, and the soft system clears `stepping`
+        /// in IntegratePositions, before end_step reads this.
+        bool stepped = false;
         bool put_to_sleep = false;  ///< this layer put the soft body to sleep with the proxy's island
         std::vector<BodyId> ignored;  ///< bodies its soft body is attached to (no collision with them)
     };
@@ -110,6 +139,13 @@ private:
     SoftSystem& soft_;
     CouplingSettings settings_;
     std::vector<Proxy> proxies_;  ///< by soft slot (body null: not embedded)
+    /// By rigid slot: the soft slot whose proxy took that rigid slot last, or kNoSoft (soft_of and is_proxy
+    /// in constant time). Set when a proxy is made, cleared when this layer destroys it; an entry whose
+    /// rigid body was destroyed from outside is stale, which the proxy's full id (its generation) tells.
+    std::vector<std::uint32_t> soft_slot_of_rigid_;
+    static constexpr std::uint32_t kNoSoft = ~std::uint32_t(0);
+    /// The soft slot whose proxy `rigid` is (its soft body may be gone since), or kNoSoft.
+    std::uint32_t proxy_slot(BodyId rigid) const;
     std::vector<Vec3> scratch_v_, scratch_x_;
     int hooks_[5] = {0, 0, 0, 0, 0};
 };

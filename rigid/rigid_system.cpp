@@ -90,6 +90,8 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
     }
 }
 
+bool RigidSystem::gravity_in_solve() const { return solver_->integrates_itself(); }
+
 const std::vector<JointId>& RigidSystem::broken_joints() const { return joints_->broken(); }
 
 void RigidSystem::add_rows(ConstraintRows* rows) {

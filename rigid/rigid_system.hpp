@@ -161,6 +161,10 @@ public:
     /// in IntegratePositions and the last sub-step for the soft step (which has integrated the others
     /// inside SolveVelocities), 0 after IntegratePositions. Coupling layers read it from their hooks.
     Real unintegrated_time() const { return unintegrated_time_; }
+    /// Whether the solver gives moving bodies the step's gravity and forces inside SolveVelocities, a
+    /// sub-step at a time (the soft step, which integrates itself), rather than all at once in
+    /// IntegrateVelocities: a coupling hook between the two stages then sees velocities without them.
+    bool gravity_in_solve() const;
     /// Shape and material by slot (no check), for coupling layers.
     const Shape& slot_shape(std::uint32_t slot) const { return shape_[slot]; }
     const Material& slot_material(std::uint32_t slot) const { return material_[slot]; }

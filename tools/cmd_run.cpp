@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "engine/world/scene.hpp"
+#include "tools/bench/bench_rigid.hpp"  // median()
 #include "tools/commands.hpp"
 #include "tools/record.hpp"
 
@@ -64,16 +65,6 @@ double round_sig(double v, int digits) {
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.*g", digits, v);
     return std::strtod(buf, nullptr);
-}
-
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    const std::size_t mid = v.size() / 2;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-    const double hi = v[mid];
-    if (v.size() % 2) return hi;
-    const double lo = *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid));
-    return 0.5 * (lo + hi);
 }
 
 int run(const std::vector<std::string>& args) {
@@ -135,7 +126,7 @@ int run(const std::vector<std::string>& args) {
     out["coupling"] = coupling_strategy_name(world->coupling().settings().strategy);
     if (!world->coupling().settings().pairs.empty()) out["coupling_pairs"] = world->coupling().settings().pairs.size();
     if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;
-    out["ms_per_step_median"] = round_sig(median(step_ms), 4);
+    out["ms_per_step_median"] = round_sig(bench::median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))
                                                             : nlohmann::ordered_json(nullptr);
     out["kinetic_energy"] = finite && std::isfinite(energy) ? nlohmann::ordered_json(round_sig(energy, 6))

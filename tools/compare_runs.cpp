@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "tools/bench/bench_cloth.hpp"  // BenchClock
+#include "tools/bench/bench_rigid.hpp"  // median()
 
 namespace sinew::tool::compare {
 
@@ -18,14 +19,6 @@ std::string Variant::label() const {
     if (divide > 1) s << " h/" << divide;
     return s.str();
 }
-
-namespace {
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
-}  // namespace
 
 Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
     SceneDesc d = scene;
@@ -70,19 +63,14 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
             for (const CouplingImpulse& c : w->coupling().impulses()) r.exchanged += c.impulse;
             // Embedded, soft bodies push through their proxies' contacts.
             if (v.strategy == CouplingStrategy::EmbedRigid)
-                for (const ContactManifold& c : w->rigid().contacts()) {
-                    const bool pa = !w->coupling().embedding().soft_of(w->rigid().id_of_slot(c.body_a)).is_null();
-                    const bool pb = !w->coupling().embedding().soft_of(w->rigid().id_of_slot(c.body_b)).is_null();
-                    if (pa == pb || w->rigid().slot_type(pa ? c.body_b : c.body_a) != BodyType::Dynamic) continue;
-                    // The normal points from A to B; B takes +n times the normal impulse.
-                    for (int k = 0; k < c.manifold.count; ++k)
-                        r.exchanged += (pa ? 1 : -1) * c.manifold.normal * c.manifold.points[k].total_normal_impulse;
-                }
+                w->coupling().embedding().for_each_proxy_contact([&](const RigidEmbedding::ProxyContact& c) {
+                    if (w->rigid().slot_type(c.body) == BodyType::Dynamic) r.exchanged += c.normal * c.impulse;
+                });
         }
         ms.push_back(step_ms);
         if (r.finite) sample();
     }
-    r.ms_per_step_median = median(ms);
+    r.ms_per_step_median = bench::median(ms);
     return r;
 }
 

@@ -18,6 +18,7 @@
 
 #include "engine/world/scene.hpp"
 #include "tools/bench/bench_cloth.hpp"  // BenchClock
+#include "tools/bench/bench_rigid.hpp"  // median()
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
 
@@ -37,13 +38,6 @@ struct CouplingRun {
     double carried = 0;
     bool finite = true;
 };
-
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // The scene's first dynamic rigid body: the one resting on the soft body.
 std::size_t dynamic_body(const SceneDesc& d) {
@@ -91,13 +85,9 @@ CouplingRun run_one(const SceneDesc& scene, CouplingStrategy strategy, double se
                 if (c.rigid == body.index) impulse += double(c.impulse.y());
         if (s >= steps - last_second && strategy == CouplingStrategy::EmbedRigid) {
             // Embedded, the soft body pushes through its proxy's contacts in the rigid solver.
-            for (const ContactManifold& c : w->rigid().contacts()) {
-                if (c.body_a != body.index && c.body_b != body.index) continue;
-                const std::uint32_t other = c.body_a == body.index ? c.body_b : c.body_a;
-                if (w->coupling().embedding().soft_of(w->rigid().id_of_slot(other)).is_null()) continue;
-                for (int k = 0; k < c.manifold.count; ++k)
-                    impulse += std::abs(double(c.manifold.normal.y()) * double(c.manifold.points[k].total_normal_impulse));
-            }
+            w->coupling().embedding().for_each_proxy_contact([&](const RigidEmbedding::ProxyContact& c) {
+                if (c.body == body.index) impulse += std::abs(double(c.normal.y()) * double(c.impulse));
+            });
         }
     }
     r.ms_per_step_median = median(ms);

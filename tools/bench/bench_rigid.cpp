@@ -288,8 +288,13 @@ void finish_run(RigidRun& run, const std::vector<double>& ms, const DriftMeter& 
 
 double median(std::vector<double> v) {
     if (v.empty()) return 0;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
+    const std::size_t mid = v.size() / 2;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+    const double hi = v[mid];
+    if (v.size() % 2) return hi;
+    // An even count: the mean of the two middle values (the largest of those below the upper one).
+    const double lo = *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid));
+    return 0.5 * (lo + hi);
 }
 
 std::string to_json_line(const RigidRun& r) {

@@ -42,6 +42,8 @@ private:
     double max_drift_ = 0, max_drop_ = 0;
 };
 
+/// The median of `v` (the mean of the two middle values for an even count; 0 for none): the one every
+/// tool reports its per-step times with (sinew run, bench, compare).
 double median(std::vector<double> v);
 /// "a,b,,c" -> {"a", "b", "c"} (the --scenes and --engines lists).
 std::vector<std::string> split_list(const std::string& s);
