@@ -173,6 +173,25 @@ TEST_CASE("C API: bad input is rejected with a status, a message, and an unchang
     wd = sinew_world_def_default();
     wd.time_step = 0;
     CHECK(sinew_world_create(&wd, &w2) == SINEW_ERROR_INVALID_ARGUMENT);
+    // Issue 18: no upper bound let a huge frame time run for ever. At the bound, a frame of 1e30 s returns
+    // after 1000 steps.
+    wd = sinew_world_def_default();
+    wd.max_steps_per_frame = 1001;
+    expect(sinew_world_create(&wd, &w2), SINEW_ERROR_INVALID_ARGUMENT, "max_steps_per_frame must be in [1, 1000]");
+    wd.max_steps_per_frame = 1000;
+    REQUIRE(sinew_world_create(&wd, &w2) == SINEW_OK);
+    int taken = 0;
+    REQUIRE(sinew_world_step(w2, 1e30f, &taken, nullptr) == SINEW_OK);
+    CHECK(taken == 1000);
+    // Issue 18: a static body given a velocity was accepted and the velocity dropped in silence.
+    sinew_body_def ground = sinew_body_def_default();
+    ground.type = SINEW_BODY_STATIC;
+    sinew_body_id ground_id;
+    REQUIRE(sinew_body_create(w2, &ground, &ground_id) == SINEW_OK);
+    expect(sinew_body_set_velocity(ground_id, {1, 0, 0}, {0, 0, 0}), SINEW_ERROR_INVALID_ARGUMENT, "is static");
+    expect(sinew_body_set_velocity(ground_id, {0, 0, 0}, {0, 2, 0}), SINEW_ERROR_INVALID_ARGUMENT, "is static");
+    CHECK(sinew_body_set_velocity(ground_id, {0, 0, 0}, {0, 0, 0}) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(w2) == SINEW_OK);
     CHECK(sinew_world_create(nullptr, &w2) == SINEW_ERROR_NULL_ARGUMENT);
 
     // A successful call clears the message.

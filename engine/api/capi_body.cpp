@@ -157,6 +157,10 @@ sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sine
         Target t = target(body, fn, true);
         if (t.status) return t.status;
         if (!finite(linear) || !finite(angular)) return invalid(fn, "velocities must be finite");
+        // A static body never moves (the scene loader refuses a velocity on one too): a non-zero velocity
+        // is a mistake to report, not to drop in silence.
+        if (t.world->rigid().type(t.body) == BodyType::Static && !(to_vec(linear).isZero() && to_vec(angular).isZero()))
+            return invalid(fn, "body " + std::to_string(body.index) + " is static: it takes no velocity (make it kinematic to move it)");
         t.world->rigid().set_velocity(t.body, to_vec(linear), to_vec(angular));
         return SINEW_OK;
     });

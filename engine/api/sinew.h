@@ -74,7 +74,7 @@ typedef enum sinew_solver {
 typedef struct sinew_world_def {
     sinew_vec3 gravity;      /* m/s^2, default (0, -9.81, 0) */
     float time_step;         /* fixed internal step h, s, default 1/60 */
-    int max_steps_per_frame; /* accumulator cap, default 8 */
+    int max_steps_per_frame; /* accumulator cap, default 8, in [1, 1000] */
     sinew_solver solver;     /* default SINEW_SOLVER_SOFT_STEP */
     int velocity_iterations; /* passes over the constraints per step, default 10 */
     int enable_sleep;        /* 0 or 1, default 1 */
@@ -131,6 +131,7 @@ SINEW_API sinew_status sinew_body_get_transform(sinew_body_id body, sinew_transf
 SINEW_API sinew_status sinew_body_set_transform(sinew_body_id body, const sinew_transform* transform);
 SINEW_API sinew_status sinew_body_get_velocity(sinew_body_id body, sinew_vec3* linear, sinew_vec3* angular);
 /** For kinematic bodies this is how the game drives them. */
+/* A static body takes only a zero velocity (SINEW_ERROR_INVALID_ARGUMENT otherwise: make it kinematic to move it). */
 SINEW_API sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sinew_vec3 angular);
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);

@@ -83,7 +83,7 @@ private:
         RigidSettings& r = w.rigid;
         w.time_step = read_real(s, "time_step", w.time_step, Range::Positive);
         desc_.steps = read_int(s, "steps", desc_.steps, 1);
-        w.max_steps_per_frame = read_int(s, "max_steps_per_frame", w.max_steps_per_frame, 1);
+        w.max_steps_per_frame = read_int(s, "max_steps_per_frame", w.max_steps_per_frame, 1, kMaxStepsPerFrame);
         r.gravity = read_vec3(s, "gravity", r.gravity);
 
         if (auto solver = s.find("solver")) {

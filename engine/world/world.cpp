@@ -14,9 +14,9 @@ void check_time_step(Real h) {
 
 World::World(const WorldSettings& settings) : settings_(settings) {
     check_time_step(settings.time_step);
-    if (settings.max_steps_per_frame < 1)
-        throw std::invalid_argument("max_steps_per_frame must be >= 1, got " +
-                                    std::to_string(settings.max_steps_per_frame));
+    if (settings.max_steps_per_frame < 1 || settings.max_steps_per_frame > kMaxStepsPerFrame)
+        throw std::invalid_argument("max_steps_per_frame must be in [1, " + std::to_string(kMaxStepsPerFrame) +
+                                    "], got " + std::to_string(settings.max_steps_per_frame));
     rigid_ = std::make_unique<RigidSystem>(settings.rigid);
     pipeline_.add_system(rigid_.get());
     SoftSettings soft = settings.soft;

@@ -11,9 +11,13 @@
 
 namespace sinew {
 
+/// The largest max_steps_per_frame accepted: a frame of any length returns after at most this many steps
+/// (a game that passes a huge frame time after a pause must not hang in World::advance).
+constexpr int kMaxStepsPerFrame = 1000;
+
 struct WorldSettings {
     Real time_step = Real(1) / 60;   ///< fixed internal step h (s)
-    int max_steps_per_frame = 8;     ///< accumulator cap, so a slow frame cannot spiral
+    int max_steps_per_frame = 8;     ///< accumulator cap, so a slow frame cannot spiral; 1 .. kMaxStepsPerFrame
     RigidSettings rigid;
     SoftSettings soft;               ///< soft.gravity is ignored: the world's gravity is rigid.gravity
 };
