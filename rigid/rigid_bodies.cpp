@@ -13,12 +13,23 @@ namespace sinew {
 
 // ---- bodies ---------------------------------------------------------------------------------------
 
+std::string velocity_problem(const Vec3& v, const Vec3& w) {
+    if (!is_finite(v) || !is_finite(w)) return "velocities must be finite";
+    // Issue 18: a finite but enormous velocity (FLT_MAX) turned the next step's positions non-finite.
+    if (v.norm() > kMaxBodySpeed)
+        return "linear velocity must be at most " + to_text(kMaxBodySpeed) + " m/s, got " + to_text(v.stableNorm());
+    if (w.norm() > kMaxBodySpin)
+        return "angular velocity must be at most " + to_text(kMaxBodySpin) + " rad/s, got " + to_text(w.stableNorm());
+    return {};
+}
+
 BodyId RigidSystem::create_body(const BodyDef& def) {
     // Validate everything before touching any array, so a bad definition changes nothing.
     auto bad = [](const std::string& why) { throw RigidError("body definition: " + why); };
     if (!is_finite(def.pose.p)) bad("position must be finite");
     if (!is_finite(def.pose.q) || def.pose.q.norm() < Real(1e-6)) bad("rotation must be a finite non-zero quaternion");
-    if (!is_finite(def.linear_velocity) || !is_finite(def.angular_velocity)) bad("velocities must be finite");
+    const std::string speed_problem = velocity_problem(def.linear_velocity, def.angular_velocity);
+    if (!speed_problem.empty()) bad(speed_problem);
     if (!is_finite(def.mass) || def.mass < 0) bad("mass must be finite and >= 0 (0 = from density), got " + to_text(def.mass));
     const Material& m = def.material;
     if (!is_finite(m.friction) || m.friction < 0) bad("friction must be finite and >= 0, got " + to_text(m.friction));
@@ -252,7 +263,8 @@ Vec3 RigidSystem::angular_velocity(BodyId id) const {
 
 void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
     check(id, "set_velocity");
-    if (!is_finite(v) || !is_finite(w)) throw RigidError("set_velocity: velocities must be finite");
+    const std::string speed_problem = velocity_problem(v, w);
+    if (!speed_problem.empty()) throw RigidError("set_velocity: " + speed_problem);
     if (type_[id.index] == BodyType::Static) return;
     state_.v[id.index] = v;
     state_.w[id.index] = w;

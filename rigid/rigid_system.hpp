@@ -46,6 +46,14 @@ class RigidSolver;
 class JointSet;
 class ConstraintRows;
 
+/// The fastest a body may be set moving (m/s, rad/s): a velocity given at creation or by set_velocity
+/// beyond these is refused (a rifle bullet flies at about 1e3 m/s; FLT_MAX made the next step's positions
+/// non-finite). The solvers themselves do not clamp.
+constexpr Real kMaxBodySpeed = Real(1e4);
+constexpr Real kMaxBodySpin = Real(1e4);
+/// Why (v, w) cannot be given to a body, or empty.
+std::string velocity_problem(const Vec3& v, const Vec3& w);
+
 class RigidSystem final : public System {
 public:
     explicit RigidSystem(const RigidSettings& settings = {});

@@ -191,6 +191,19 @@ TEST_CASE("C API: bad input is rejected with a status, a message, and an unchang
     expect(sinew_body_set_velocity(ground_id, {1, 0, 0}, {0, 0, 0}), SINEW_ERROR_INVALID_ARGUMENT, "is static");
     expect(sinew_body_set_velocity(ground_id, {0, 0, 0}, {0, 2, 0}), SINEW_ERROR_INVALID_ARGUMENT, "is static");
     CHECK(sinew_body_set_velocity(ground_id, {0, 0, 0}, {0, 0, 0}) == SINEW_OK);
+    // Issue 18: after set_velocity(FLT_MAX) no later step succeeded ("collide: margin must be finite").
+    sinew_body_def ball = sinew_body_def_default();
+    sinew_body_id ball_id;
+    REQUIRE(sinew_body_create(w2, &ball, &ball_id) == SINEW_OK);
+    const float huge = std::numeric_limits<float>::max();
+    expect(sinew_body_set_velocity(ball_id, {huge, 0, 0}, {0, 0, 0}), SINEW_ERROR_INVALID_ARGUMENT,
+           "linear velocity must be at most");
+    expect(sinew_body_set_velocity(ball_id, {0, 0, 0}, {0, -huge, 0}), SINEW_ERROR_INVALID_ARGUMENT,
+           "angular velocity must be at most");
+    ball.linear_velocity = {0, 2e4f, 0};
+    expect(sinew_body_create(w2, &ball, &ball_id), SINEW_ERROR_INVALID_ARGUMENT, "linear velocity must be at most");
+    REQUIRE(sinew_body_set_velocity(ball_id, {1000, 0, 0}, {0, 0, 0}) == SINEW_OK);  // a bullet's speed is fine
+    REQUIRE(sinew_world_step_fixed(w2) == SINEW_OK);
     REQUIRE(sinew_world_destroy(w2) == SINEW_OK);
     CHECK(sinew_world_create(nullptr, &w2) == SINEW_ERROR_NULL_ARGUMENT);
 

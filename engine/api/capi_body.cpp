@@ -156,7 +156,8 @@ sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sine
     return guarded(fn, [&] {
         Target t = target(body, fn, true);
         if (t.status) return t.status;
-        if (!finite(linear) || !finite(angular)) return invalid(fn, "velocities must be finite");
+        const std::string speed_problem = velocity_problem(to_vec(linear), to_vec(angular));
+        if (!speed_problem.empty()) return invalid(fn, speed_problem);
         // A static body never moves (the scene loader refuses a velocity on one too): a non-zero velocity
         // is a mistake to report, not to drop in silence.
         if (t.world->rigid().type(t.body) == BodyType::Static && !(to_vec(linear).isZero() && to_vec(angular).isZero()))

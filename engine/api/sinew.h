@@ -93,7 +93,7 @@ typedef struct sinew_shape_def {
 typedef struct sinew_body_def {
     sinew_body_type type;     /* default SINEW_BODY_DYNAMIC */
     sinew_transform transform; /* body origin in the world, default identity */
-    sinew_vec3 linear_velocity;  /* m/s, default 0 */
+    sinew_vec3 linear_velocity;  /* m/s, default 0, at most 1e4 m/s (angular: 1e4 rad/s) */
     sinew_vec3 angular_velocity; /* rad/s, default 0 */
     sinew_shape_def shape;
     float mass;               /* kg; 0 = from density (default 0) */
