@@ -54,6 +54,9 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
             bad(e.what());
         }
         if (!(mp.mass > 0) || !is_finite(mp.mass)) bad("mass must be > 0, got " + to_text(mp.mass));
+        if (mp.mass < kMinBodyMass || mp.mass > kMaxBodyMass)
+            bad("mass must be in [" + to_text(kMinBodyMass) + ", " + to_text(kMaxBodyMass) + "] kg, got " +
+                to_text(mp.mass) + (def.mass > 0 ? std::string() : " (density " + to_text(m.density) + " times the shape's volume)"));
     }
     Aabb box = def.shape.bounds(pose);
     if (!is_finite(box.lo) || !is_finite(box.hi)) bad("shape bounds are not finite");

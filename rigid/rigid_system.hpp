@@ -51,6 +51,11 @@ class ConstraintRows;
 /// non-finite). The solvers themselves do not clamp.
 constexpr Real kMaxBodySpeed = Real(1e4);
 constexpr Real kMaxBodySpin = Real(1e4);
+/// The range of a dynamic body's mass (kg), given or from its density: outside it the solvers' float
+/// arithmetic fails (issue 18: a 0.3 mm sphere at 1000 kg/m^3, 1.1e-7 kg, and masses of 1e30 or 1e-38
+/// went non-finite within two steps). A 1 mg bead to a 1e12 kg asteroid.
+constexpr Real kMinBodyMass = Real(1e-6);
+constexpr Real kMaxBodyMass = Real(1e12);
 /// Why (v, w) cannot be given to a body, or empty.
 std::string velocity_problem(const Vec3& v, const Vec3& w);
 

@@ -203,6 +203,17 @@ TEST_CASE("C API: bad input is rejected with a status, a message, and an unchang
     ball.linear_velocity = {0, 2e4f, 0};
     expect(sinew_body_create(w2, &ball, &ball_id), SINEW_ERROR_INVALID_ARGUMENT, "linear velocity must be at most");
     REQUIRE(sinew_body_set_velocity(ball_id, {1000, 0, 0}, {0, 0, 0}) == SINEW_OK);  // a bullet's speed is fine
+    // Issue 18: masses of 1e30 and 1e-38, and a 0.3 mm sphere at the default density, went non-finite.
+    sinew_body_def odd = sinew_body_def_default();
+    sinew_body_id odd_id;
+    odd.mass = 1e30f;
+    expect(sinew_body_create(w2, &odd, &odd_id), SINEW_ERROR_INVALID_ARGUMENT, "mass must be in [1e-06, 1e+12] kg");
+    odd.mass = 1e-38f;
+    expect(sinew_body_create(w2, &odd, &odd_id), SINEW_ERROR_INVALID_ARGUMENT, "mass must be in");
+    odd = sinew_body_def_default();
+    odd.shape.type = SINEW_SHAPE_SPHERE;
+    odd.shape.radius = 3e-4f;
+    expect(sinew_body_create(w2, &odd, &odd_id), SINEW_ERROR_INVALID_ARGUMENT, "times the shape's volume");
     REQUIRE(sinew_world_step_fixed(w2) == SINEW_OK);
     REQUIRE(sinew_world_destroy(w2) == SINEW_OK);
     CHECK(sinew_world_create(nullptr, &w2) == SINEW_ERROR_NULL_ARGUMENT);
