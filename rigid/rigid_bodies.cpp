@@ -268,7 +268,14 @@ void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
     check(id, "set_velocity");
     const std::string speed_problem = velocity_problem(v, w);
     if (!speed_problem.empty()) throw RigidError("set_velocity: " + speed_problem);
-    if (type_[id.index] == BodyType::Static) return;
+    if (type_[id.index] == BodyType::Static) {
+        // A static body never moves (the scene loader refuses a velocity on one too): a non-zero velocity
+        // is a mistake to report, not to drop in silence.
+        if (!(v.isZero() && w.isZero()))
+            throw RigidError("set_velocity: body " + std::to_string(id.index) +
+                             " is static: it takes no velocity (make it kinematic to move it)");
+        return;
+    }
     state_.v[id.index] = v;
     state_.w[id.index] = w;
     w_frame_[id.index] = state_.q[id.index];

@@ -89,6 +89,8 @@ public:
     void set_transform(BodyId id, const Transform& xf);
     Vec3 linear_velocity(BodyId id) const;
     Vec3 angular_velocity(BodyId id) const;
+    /// Throws RigidError (nothing changed) for a non-finite or too fast velocity (kMaxBodySpeed, kMaxBodySpin)
+    /// and for a non-zero one on a static body.
     void set_velocity(BodyId id, const Vec3& v, const Vec3& w);
     /// Pose and velocity of a moving body that something else drives every step (a soft body's proxy,
     /// coupling/rigid_embedding.hpp): unlike set_transform and set_velocity it wakes nothing, so the body's

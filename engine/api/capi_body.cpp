@@ -156,12 +156,7 @@ sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sine
     return guarded(fn, [&] {
         Target t = target(body, fn, true);
         if (t.status) return t.status;
-        const std::string speed_problem = velocity_problem(to_vec(linear), to_vec(angular));
-        if (!speed_problem.empty()) return invalid(fn, speed_problem);
-        // A static body never moves (the scene loader refuses a velocity on one too): a non-zero velocity
-        // is a mistake to report, not to drop in silence.
-        if (t.world->rigid().type(t.body) == BodyType::Static && !(to_vec(linear).isZero() && to_vec(angular).isZero()))
-            return invalid(fn, "body " + std::to_string(body.index) + " is static: it takes no velocity (make it kinematic to move it)");
+        // RigidError (non-finite, too fast, non-zero on a static body) becomes INVALID_ARGUMENT in guarded.
         t.world->rigid().set_velocity(t.body, to_vec(linear), to_vec(angular));
         return SINEW_OK;
     });

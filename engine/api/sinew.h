@@ -130,8 +130,8 @@ SINEW_API sinew_status sinew_body_destroy(sinew_body_id body);
 SINEW_API sinew_status sinew_body_get_transform(sinew_body_id body, sinew_transform* out);
 SINEW_API sinew_status sinew_body_set_transform(sinew_body_id body, const sinew_transform* transform);
 SINEW_API sinew_status sinew_body_get_velocity(sinew_body_id body, sinew_vec3* linear, sinew_vec3* angular);
-/** For kinematic bodies this is how the game drives them. */
-/* A static body takes only a zero velocity (SINEW_ERROR_INVALID_ARGUMENT otherwise: make it kinematic to move it). */
+/** For kinematic bodies this is how the game drives them. At most 1e4 m/s and 1e4 rad/s; a static body takes
+ *  only a zero velocity (SINEW_ERROR_INVALID_ARGUMENT otherwise: make it kinematic to move it). */
 SINEW_API sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sinew_vec3 angular);
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);

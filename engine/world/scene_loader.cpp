@@ -402,10 +402,10 @@ private:
         d.pose = parse_pose(b);
         d.linear_velocity = read_vec3(b, "linear_velocity", Vec3::Zero());
         d.angular_velocity = read_vec3(b, "angular_velocity", Vec3::Zero());
-        if (d.linear_velocity.norm() > kMaxBodySpeed)
-            b.find("linear_velocity")->fail(velocity_problem(d.linear_velocity, Vec3::Zero()));
-        if (d.angular_velocity.norm() > kMaxBodySpin)
-            b.find("angular_velocity")->fail(velocity_problem(Vec3::Zero(), d.angular_velocity));
+        if (const std::string why = velocity_problem(d.linear_velocity, Vec3::Zero()); !why.empty())
+            b.find("linear_velocity")->fail(why);
+        if (const std::string why = velocity_problem(Vec3::Zero(), d.angular_velocity); !why.empty())
+            b.find("angular_velocity")->fail(why);
         if (d.type == BodyType::Static) {
             for (const char* key : {"linear_velocity", "angular_velocity"})
                 if (auto n = b.find(key); n && !n->vec3().isZero(0))
