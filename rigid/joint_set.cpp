@@ -225,6 +225,17 @@ void JointSet::destroy_attached(std::uint32_t slot) {
         if (m.slots.alive(s) && (m.joints[s].def.body_a.index == slot || m.joints[s].def.body_b.index == slot)) m.remove(s);
 }
 
+void JointSet::forget_impulses(std::uint32_t slot) {
+    Impl& m = *impl_;
+    for (std::uint32_t s = 0; s < m.joints.size(); ++s) {
+        JointData& j = m.joints[s];
+        if (!m.slots.alive(s) || (j.def.body_a.index != slot && j.def.body_b.index != slot)) continue;
+        j.impulses.clear();
+        j.reaction_force.setZero();
+        j.reaction_torque.setZero();
+    }
+}
+
 std::uint64_t JointSet::filter_revision() const { return impl_->filter_revision; }
 
 bool JointSet::filters_pair(std::uint32_t a, std::uint32_t b) const {

@@ -38,6 +38,9 @@ public:
     std::vector<JointId> ids() const;
     /// Removes every joint attached to body slot `slot` (when the body is destroyed).
     void destroy_attached(std::uint32_t slot);
+    /// Clears the accumulated impulses (warm start, reactions) of every joint attached to body slot `slot`:
+    /// the body's state was not finite and has been put back (engine/core/step_fault.hpp).
+    void forget_impulses(std::uint32_t slot);
     /// Does a live joint connect the two slots with collide_connected == false? (contact filtering)
     bool filters_pair(std::uint32_t a, std::uint32_t b) const;
     /// Changes whenever a joint is created or removed, i.e. whenever filters_pair() may answer differently.

@@ -2,7 +2,11 @@
 // from velocities, and the solver's and outside rows' end-of-step work.
 #include "rigid/rigid_system.hpp"
 
+#include <cmath>
+
+#include "engine/core/format.hpp"
 #include "rigid/constraint_rows.hpp"
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 
 namespace sinew {
@@ -85,7 +89,57 @@ void RigidSystem::integrate_positions(Real h) {
         for (std::uint32_t s = 0; s < slots_.size(); ++s)
             if (state_.inv_mass[s] != 0) follow_rotation(s);
     }
+    contain_non_finite();
     if (settings_.sleeping) update_sleep(h);
+}
+
+void RigidSystem::contain_non_finite() {
+    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+        if (!slots_.alive(s) || type_[s] == BodyType::Static) continue;
+        // A finite orientation far from unit length (zero, after normalising an overflowed one) is as
+        // broken as a NaN: every later rotation of the body is.
+        const Real q2 = state_.q[s].squaredNorm();
+        const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
+        std::string what;
+        if (!state_.x[s].allFinite())
+            what = "position " + to_text(state_.x[s]) + " is not finite";
+        else if (!(std::abs(q2 - 1) < Real(0.1)))
+            what = "orientation is not a unit quaternion (|q|^2 = " + to_text(q2) + ")";
+        else if (!(state_.v[s].squaredNorm() < fast))
+            what = "speed " + to_text(state_.v[s].norm()) + " m/s is not finite or beyond " + to_text(kBlowUpSpeed);
+        else if (!(state_.w[s].squaredNorm() < fast))
+            what = "spin " + to_text(state_.w[s].norm()) + " rad/s is not finite or beyond " + to_text(kBlowUpSpeed);
+        else
+            continue;
+        // Back where the step found it, at rest: a body created during the step has no start pose and
+        // stays where it was created only if that was finite (it was: creation refuses anything else).
+        if (s < start_x_.size() && start_x_[s].allFinite() && std::abs(start_q_[s].squaredNorm() - 1) < Real(0.1)) {
+            state_.x[s] = start_x_[s];
+            state_.q[s] = start_q_[s];
+        }
+        state_.v[s].setZero();
+        state_.w[s].setZero();
+        state_.force[s].setZero();
+        state_.torque[s].setZero();
+        w_frame_[s] = state_.q[s];
+        // Impulses accumulated against it would start the next step's solve from the same values.
+        for (ContactManifold& c : contacts_) {
+            if (c.body_a != s && c.body_b != s) continue;
+            for (int k = 0; k < c.manifold.count; ++k) {
+                c.manifold.points[k].normal_impulse = 0;
+                c.manifold.points[k].tangent_impulse[0] = c.manifold.points[k].tangent_impulse[1] = 0;
+            }
+        }
+        joints_->forget_impulses(s);
+        StepFault f;
+        f.system = "rigid";
+        f.index = s;
+        f.generation = slots_.generation(s);
+        f.what = std::move(what);
+        f.hint = "the solver could not hold what acts on it (a joint motor or force far beyond the bodies' "
+                 "masses, a mass ratio of many orders): lower the force or motor limit, or use a smaller step";
+        faults_.push_back(std::move(f));
+    }
 }
 
 }  // namespace sinew

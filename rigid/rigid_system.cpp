@@ -72,6 +72,9 @@ void RigidSystem::set_settings(const RigidSettings& s) {
 void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
     switch (stage) {
         case Stage::IntegrateVelocities:
+            faults_.clear();
+            start_x_ = state_.x;  // no allocation once the arrays have grown
+            start_q_ = state_.q;
             unintegrated_time_ = ctx.h;
             prepare_mass_state();
             solver_->before_integrate_velocities(*this, ctx.h);

@@ -16,6 +16,7 @@
 #include "engine/core/pipeline.hpp"
 #include "engine/core/ray_cast.hpp"
 #include "engine/core/slots.hpp"
+#include "engine/core/step_fault.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
@@ -197,6 +198,9 @@ public:
     std::vector<ContactManifold>& mutable_contacts() { return contacts_; }
     /// Runs the broad and narrow phase now (solvers that detect more than once per step call it).
     void detect_contacts_now(Real h) { detect_collisions(h); }
+    /// Bodies whose state was not finite at the end of the last step: each was put back where the step
+    /// found it, at rest, and its contacts' and joints' accumulated impulses cleared (step_fault.hpp).
+    const std::vector<StepFault>& faults() const { return faults_; }
     /// Body type by slot, for solvers.
     BodyType slot_type(std::uint32_t slot) const { return type_[slot]; }
 
@@ -229,6 +233,8 @@ private:
     Transform detection_transform(std::uint32_t slot, Real h) const;
     void solve_velocities(Real h);
     void integrate_positions(Real h);
+    /// IntegratePositions, last: puts back the bodies whose state is not finite (faults()).
+    void contain_non_finite();
     /// The gyroscopic effect of body s's rotation since its angular velocity was last set (w_frame_): the
     /// world angular momentum kept while the inertia turns (rigid/rigid_integration.cpp).
     void follow_rotation(std::uint32_t s);
@@ -241,6 +247,9 @@ private:
     State state_;
     // cold per-slot data
     Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
+    std::vector<Vec3> start_x_;    ///< state_.x and state_.q at the start of the step, to put a body back
+    std::vector<Quat> start_q_;    ///<   whose state turned non-finite (contain_non_finite)
+    std::vector<StepFault> faults_;
     std::vector<BodyType> type_;
     std::vector<Shape> shape_;
     std::vector<Material> material_;

@@ -11,6 +11,7 @@
 #include "soft/tet_mesh.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/soft_methods.hpp"
+#include "soft/soft_stability.hpp"
 #include "soft/solver_caches.hpp"
 
 namespace sinew {
@@ -266,7 +267,10 @@ void SoftSystem::set_substeps(int k, std::function<void(int, Real)> before_subst
 void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
     const Real h = ctx.h / Real(substeps_);
     switch (stage) {
-        case Stage::IntegrateVelocities: integrate_velocities(h); break;
+        case Stage::IntegrateVelocities:
+            faults_.clear();
+            integrate_velocities(h);
+            break;
         case Stage::DetectCollisions: detect_collisions(h); break;
         case Stage::SolveVelocities: solve_velocities(h); break;
         case Stage::IntegratePositions:
@@ -438,10 +442,41 @@ void SoftSystem::integrate_positions(Real h) {
         // as it would have had it been part of the solve.
         for (std::size_t i = 0; i < p.size(); ++i)
             if (p.inv_mass[i] != 0) p.x_next[i] += h * (p.v[i] - p.v_solved[i]);
+        contain_non_finite(s, h);
         p.x.swap(p.x_next);
         for (Vec3& f : p.f) f.setZero();
         b.stepping = false;
         update_sleep(b, h);
+    }
+}
+
+void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
+    SoftBody& b = bodies_[s];
+    Particles& p = b.p;
+    std::size_t bad = p.size();
+    const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
+    for (std::size_t i = 0; i < p.size() && bad == p.size(); ++i)
+        if (!p.x_next[i].allFinite() || !(p.v[i].squaredNorm() < fast)) bad = i;
+    if (bad == p.size()) return;
+    StepFault f;
+    f.system = "soft";
+    f.index = s;
+    f.generation = slots_.generation(s);
+    f.what = (p.x_next[bad].allFinite()
+                  ? "speed of particle " + std::to_string(bad) + ", " + to_text(p.v[bad].norm()) +
+                        " m/s, is not finite or beyond " + to_text(kBlowUpSpeed)
+                  : "position of particle " + std::to_string(bad) + " is not finite") +
+             " (" + soft_method_name(b.def.method) + ")";
+    f.hint = stability_hint(b, h);
+    faults_.push_back(std::move(f));
+    // Back where the step found it (x is still x_n here), at rest; what the method carries from step to
+    // step (Verlet's previous positions, forces) starts again from there.
+    p.x_next = p.x;
+    p.x_prev = p.x;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        p.v[i].setZero();
+        p.v_solved[i].setZero();
+        p.f[i].setZero();
     }
 }
 

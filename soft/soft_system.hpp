@@ -21,6 +21,7 @@
 #include "engine/core/slots.hpp"
 #include "soft/collider.hpp"
 #include "soft/particle_collision.hpp"
+#include "engine/core/step_fault.hpp"
 #include "soft/soft_body.hpp"
 
 namespace sinew {
@@ -107,6 +108,9 @@ public:
     void change_predicted_velocity(std::uint32_t slot, std::uint32_t i, const Vec3& dv, Real h);
     /// Particle contacts found in the last step, body slot order.
     const std::vector<ParticleContact>& contacts() const { return contacts_; }
+    /// Bodies whose particles were not finite at the end of the last step: each was put back where the
+    /// step found it, at rest (engine/core/step_fault.hpp).
+    const std::vector<StepFault>& faults() const { return faults_; }
 
     std::size_t particle_count() const;
     double kinetic_energy() const;
@@ -123,6 +127,8 @@ private:
     void solve_velocities(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
+    /// IntegratePositions: puts body `s` back where the step found it if its particles are not finite.
+    void contain_non_finite(std::uint32_t s, Real h);
     /// Keeps the contacts the contact pass appended from `first` as the body's per-particle contact
     /// normals and collider speeds, for the next step's implicit solve.
     void record_contacts(SoftBody& b, std::size_t first);
@@ -134,6 +140,7 @@ private:
     Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
     std::vector<Collider> colliders_;
     std::vector<ParticleContact> contacts_;
+    std::vector<StepFault> faults_;
     std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
 };
 

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <string>
 #include <thread>
@@ -241,5 +242,103 @@ TEST_CASE("C API hooks: a callback during a step cannot change the stepping worl
     REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
     CHECK(t.p.y == Approx(0.5).margin(0.01));  // not moved to y = 9
     REQUIRE(sinew_world_destroy(other) == SINEW_OK);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+// A world that blows up says so (issue 18): a body created past its method's documented stability limit
+// gets a warning at creation; the step in which its state turns non-finite returns SINEW_ERROR_NON_FINITE
+// with an error line naming the body, the step and the method's limit; the body is put back where that
+// step found it, at rest, and the rest of the world steps on unaffected.
+namespace {
+bool finite3(const sinew_vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+}  // namespace
+
+TEST_CASE("C API: a semi-implicit cloth past 2/omega is warned at creation, reported when it blows up, and "
+          "contained", "[capi][errors][blowup]") {
+    std::vector<LogLine> log;
+    REQUIRE(sinew_set_log_callback(collect, &log) == SINEW_OK);
+    sinew_world_id w = make_world();
+
+    // A box in free fall beside the cloth: the blow-up must not touch it.
+    sinew_body_def b = sinew_body_def_default();
+    b.transform.p = {10, 100, 0};
+    b.mass = 1;
+    sinew_body_id box;
+    REQUIRE(sinew_body_create(w, &b, &box) == SINEW_OK);
+
+    // The default 16 x 16 cloth of 1 kg (3.9 g per particle) with 1000 N/m springs: omega = 716 rad/s for
+    // one spring alone, so semi-implicit Euler is stable only below h = 2.8 ms and the world steps at 16.7 ms.
+    sinew_soft_def d = sinew_soft_def_default();
+    d.method = SINEW_SOFT_SEMI_IMPLICIT;
+    d.allow_sleep = 0;
+    sinew_cloth_def c = sinew_cloth_def_default();
+    c.origin = {0, 4, 0};
+    c.edge_u = {2, 0, 0};
+    c.edge_v = {0, 0, 2};
+    c.pinned_corners = SINEW_CLOTH_PIN_00 | SINEW_CLOTH_PIN_10;
+    sinew_soft_body_id cloth;
+    REQUIRE(sinew_soft_create_cloth(w, &d, &c, &cloth) == SINEW_OK);
+    REQUIRE(log.size() == 1);
+    CHECK(log[0].level == SINEW_LOG_WARNING);
+    CHECK(log[0].text.find("sinew_soft_create_cloth") != std::string::npos);
+    CHECK(log[0].text.find("semi-implicit") != std::string::npos);
+    CHECK(log[0].text.find("0.00279") != std::string::npos);  // 2 / sqrt(4 k / (2 m)) = 2.795 ms
+    log.clear();
+
+    // Step until the cloth blows up: the status says so and the log names it.
+    int n = 0, faulted = -1;
+    std::vector<sinew_vec3> before(256), after(256);
+    int got = 0;
+    for (; n < 400 && faulted < 0; ++n) {
+        REQUIRE(sinew_soft_get_positions(cloth, before.data(), 256, &got) == SINEW_OK);
+        const sinew_status s = sinew_world_step_fixed(w);
+        if (s == SINEW_OK) continue;
+        REQUIRE(s == SINEW_ERROR_NON_FINITE);
+        faulted = n;
+    }
+    REQUIRE(faulted >= 0);
+    REQUIRE(log.size() == 1);
+    const std::string& line = log[0].text;
+    INFO(line);
+    CHECK(log[0].level == SINEW_LOG_ERROR);
+    CHECK(line == sinew_last_error());
+    CHECK(line.find("sinew_world_step_fixed: step " + std::to_string(faulted) + ": soft body") == 0);
+    CHECK(line.find("index " + std::to_string(cloth.index)) != std::string::npos);
+    CHECK(line.find("semi-implicit") != std::string::npos);
+    CHECK(line.find("2/omega") != std::string::npos);
+
+    // Contained: the cloth is back where the step found it, at rest; the box fell freely all along.
+    REQUIRE(sinew_soft_get_positions(cloth, after.data(), 256, &got) == SINEW_OK);
+    for (int i = 0; i < 256; ++i) {
+        REQUIRE(finite3(after[i]));
+        CHECK(after[i].x == before[i].x);
+        CHECK(after[i].y == before[i].y);
+        CHECK(after[i].z == before[i].z);
+    }
+    // The box is where the same box in a world of its own is after as many steps.
+    sinew_world_id alone = make_world();
+    sinew_body_id box_alone;
+    REQUIRE(sinew_body_create(alone, &b, &box_alone) == SINEW_OK);
+    for (int i = 0; i <= faulted; ++i) REQUIRE(sinew_world_step_fixed(alone) == SINEW_OK);
+    sinew_transform t, t_alone;
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    REQUIRE(sinew_body_get_transform(box_alone, &t_alone) == SINEW_OK);
+    CHECK(t.p.y == t_alone.p.y);
+    CHECK(t.p.y < 100);
+    REQUIRE(sinew_world_destroy(alone) == SINEW_OK);
+
+    // The world steps on; the game loop keeps its steps and alpha on the error too.
+    log.clear();
+    int taken = -1;
+    float alpha = -1;
+    const sinew_status s = sinew_world_step(w, 4.5f / 60, &taken, &alpha);
+    CHECK((s == SINEW_OK || s == SINEW_ERROR_NON_FINITE));
+    CHECK(taken == 4);
+    CHECK(alpha == Approx(0.5f).margin(1e-3));
+    if (s == SINEW_ERROR_NON_FINITE) CHECK(log.size() == 1);  // one line per body, however many steps
+    REQUIRE(sinew_soft_get_positions(cloth, after.data(), 256, &got) == SINEW_OK);
+    for (int i = 0; i < 256; ++i) REQUIRE(finite3(after[i]));
+    REQUIRE(sinew_set_log_callback(nullptr, nullptr) == SINEW_OK);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -761,4 +762,44 @@ TEST_CASE("bad joints in a scene file are reported at their JSON path", "[joints
     // And a good one between a static and a dynamic body builds.
     const SceneDesc ok = parse_scene_string(head + R"({"type": "ball", "body_a": "wall", "body_b": "a"}]})", "ok.json");
     CHECK(build_world(ok)->rigid().joints().count() == 1);
+}
+
+// Issue 18: a hinge motor of 1e5 N m spinning a 1 kg arm at 50 rad/s into the ground and its own post drove
+// the default solver to NaN within 20 steps while every step went on as if nothing had happened (and
+// `sinew run` then printed finite: true with a zero quaternion). The blow-up itself is a documented limit
+// of the soft step (docs/rigid-solvers.md, "a motor far beyond its body's inertia"); what is asserted is
+// that the step names the arm and puts it back, and that the world stays finite and steps on.
+TEST_CASE("a hinge motor far beyond its arm's inertia blows up; the step names the arm and contains it",
+          "[joints][errors]") {
+    const std::string scene = R"({"format": "sinew-scene", "version": 1, "name": "motor-arm",
+      "bodies": [
+        {"name": "ground", "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]}, "position": [0, -0.5, 0]},
+        {"name": "post", "type": "static", "shape": {"type": "box", "half_extents": [0.1, 0.5, 0.1]}, "position": [0, 0.5, 0]},
+        {"name": "arm", "shape": {"type": "box", "half_extents": [0.5, 0.05, 0.05]}, "position": [0.5, 1.0, 0], "mass": 1}],
+      "joints": [{"type": "hinge", "body_a": "post", "body_b": "arm", "anchor_a": [0, 0.5, 0], "axis": [0, 0, 1],
+                  "motor": {"speed": -50, "max_force": 1e5}}]})";
+    std::vector<BodyId> ids;
+    const std::unique_ptr<World> world = build_world(parse_scene_string(scene, "motor-arm.json"), &ids);
+    const BodyId arm = ids[2];
+    int faults = 0;
+    for (int k = 0; k < 120; ++k) {
+        const Transform before = world->rigid().transform(arm);
+        world->step();
+        REQUIRE(world->rigid().all_finite());
+        if (world->faults().empty()) continue;
+        ++faults;
+        REQUIRE(world->faults().size() == 1);
+        const StepFault& f = world->faults()[0];
+        INFO(f.what);
+        CHECK(std::string(f.system) == "rigid");
+        CHECK(f.index == arm.index);
+        CHECK(f.generation == arm.generation);
+        CHECK(f.step == std::uint64_t(k));
+        CHECK_THAT(f.hint, Catch::Contains("motor"));
+        // Back where the step found it, at rest.
+        CHECK(world->rigid().transform(arm).p == before.p);
+        CHECK(world->rigid().linear_velocity(arm) == Vec3::Zero());
+        CHECK(world->rigid().angular_velocity(arm) == Vec3::Zero());
+    }
+    CHECK(faults >= 1);
 }

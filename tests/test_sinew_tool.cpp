@@ -15,6 +15,7 @@
 
 using namespace sinew;
 using Catch::Matchers::Contains;
+using Catch::Matchers::StartsWith;
 
 namespace fs = std::filesystem;
 
@@ -172,6 +173,30 @@ TEST_CASE("run of the showcase prints one finite JSON line", "[tool]") {
     // 30 steps = 0.5 s of free fall; the lowest bodies start 1.5 m or more above the ground and need
     // about 0.55 s to land, so everything is still falling and the kinetic energy is positive.
     CHECK(j["kinetic_energy"].get<double>() > 0);
+}
+
+TEST_CASE("run warns of a body past its method's limit, names it when it blows up, and exits 3", "[tool][errors]") {
+    // cloth-32 under semi-implicit Euler: 10^4 N/m springs on 1 g particles, stable only below h = 0.44 ms.
+    nlohmann::ordered_json scene = nlohmann::ordered_json::parse(slurp(kSource + "/demos/scenes/cloth-32.json"));
+    scene["soft_bodies"][0]["method"] = "semi-implicit";
+    const fs::path file = scratch() / "cloth-semi-implicit.json";
+    {
+        std::ofstream f(file);
+        f << scene.dump();
+    }
+    const Result r = sinew_cmd("run " + quote(file.string()) + " --steps 200");
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 3);
+    const std::vector<std::string> err = lines_of(r.err);
+    REQUIRE(err.size() == 2);
+    CHECK_THAT(err[0], Contains("sinew run: warning: soft body 'cloth': semi-implicit Euler diverges above h = 2/omega"));
+    CHECK_THAT(err[1], StartsWith("sinew run: step "));
+    CHECK_THAT(err[1], Contains(": soft body 'cloth': "));
+    CHECK_THAT(err[1], Contains("(semi-implicit); put back where the step found it, at rest"));
+    const nlohmann::ordered_json j = nlohmann::ordered_json::parse(lines_of(r.out).at(0));
+    CHECK(j["finite"] == false);
+    CHECK(j["steps"].get<int>() < 200);
 }
 
 TEST_CASE("run --record writes a header and one line per frame", "[tool]") {

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "engine/world/scene.hpp"
+#include "soft/soft_stability.hpp"
 #include "tools/bench/bench_rigid.hpp"  // median()
 #include "tools/commands.hpp"
 #include "tools/record.hpp"
@@ -59,6 +60,22 @@ RunOptions parse_options(const std::vector<std::string>& args) {
     return o;
 }
 
+// "rigid body 'crate'" / "soft body 'cloth'": the scene's name of the body a fault names (the world was
+// built from the scene: rigid ids in `ids`, soft bodies in file order).
+std::string body_name(const SceneDesc& scene, const std::vector<BodyId>& ids, const World& world, const StepFault& f) {
+    const bool soft = std::string(f.system) == "soft";
+    std::string name;
+    if (soft) {
+        const std::vector<SoftBodyId> soft_ids = world.soft().bodies();
+        for (std::size_t i = 0; i < soft_ids.size() && i < scene.soft_bodies.size(); ++i)
+            if (soft_ids[i].index == f.index) name = scene.soft_bodies[i].name;
+    } else {
+        for (std::size_t i = 0; i < ids.size() && i < scene.bodies.size(); ++i)
+            if (ids[i].index == f.index) name = scene.bodies[i].name;
+    }
+    return std::string(f.system) + " body '" + (name.empty() ? "#" + std::to_string(f.index) : name) + "'";
+}
+
 // Measurements are printed to a sensible number of significant digits rather than as 17-digit doubles.
 double round_sig(double v, int digits) {
     if (!std::isfinite(v) || v == 0) return v;
@@ -86,6 +103,14 @@ int run(const std::vector<std::string>& args) {
 
     std::vector<BodyId> ids;
     const std::unique_ptr<World> world = build_world(scene, &ids);
+    // A body past its method's documented stability limit at this step is run, with a warning first.
+    {
+        const std::vector<SoftBodyId> soft_ids = world->soft().bodies();
+        for (std::size_t i = 0; i < soft_ids.size() && i < scene.soft_bodies.size(); ++i) {
+            const std::string w = stability_warning(world->soft().body(soft_ids[i]), world->settings().time_step);
+            if (!w.empty()) std::cerr << "sinew run: warning: soft body '" << scene.soft_bodies[i].name << "': " << w << '\n';
+        }
+    }
     RigidSystem& rigid = world->rigid();
     std::unique_ptr<Recorder> recorder;
     if (!opt.record.empty()) {
@@ -107,7 +132,11 @@ int run(const std::vector<std::string>& args) {
         const auto t1 = std::chrono::steady_clock::now();
         step_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
         ++done;
-        finite = rigid.all_finite() && soft.all_finite();  // stop at the first blow-up: later steps would measure garbage
+        // Stop at the first blow-up: later steps would measure a body put back at rest (World::faults).
+        for (const StepFault& f : world->faults())
+            std::cerr << "sinew run: step " << f.step << ": " << body_name(scene, ids, *world, f) << ": " << f.what
+                      << "; put back where the step found it, at rest. " << f.hint << '\n';
+        finite = world->faults().empty() && rigid.all_finite() && soft.all_finite();
         max_penetration = std::max(max_penetration, static_cast<double>(rigid.max_penetration()));
         if (recorder) recorder->write_frame(*world, static_cast<std::uint64_t>(done));
     }

@@ -57,7 +57,8 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
             const double t0 = bench::bench_clock_ms(bench::BenchClock::ThreadCpu);
             w->step();
             step_ms += bench::bench_clock_ms(bench::BenchClock::ThreadCpu) - t0;
-            r.finite = w->rigid().all_finite() && w->soft().all_finite();
+            // A blow-up is contained by the step (World::faults) and ends the run as not finite.
+            r.finite = w->faults().empty() && w->rigid().all_finite() && w->soft().all_finite();
             r.max_penetration = std::max(r.max_penetration, double(w->rigid().max_penetration()));
             for (const ParticleContact& c : w->soft().contacts()) r.max_penetration = std::max(r.max_penetration, double(c.depth));
             for (const CouplingImpulse& c : w->coupling().impulses()) r.exchanged += c.impulse;

@@ -11,6 +11,7 @@
 #include "engine/core/format.hpp"
 #include "soft/fem_elements.hpp"
 #include "soft/soft_builders.hpp"
+#include "soft/soft_stability.hpp"
 
 using namespace sinew;
 using namespace sinew::capi;
@@ -101,10 +102,16 @@ sinew_status begin_create(const char* fn, sinew_world_id world, const sinew_soft
     return SINEW_OK;
 }
 
-sinew_status finish_create(World* w, sinew_world_id world, SoftBodyDef def, sinew_soft_body_id* out) {
+sinew_status finish_create(const char* fn, World* w, sinew_world_id world, SoftBodyDef def, sinew_soft_body_id* out) {
     const SoftBodyId id = w->soft().create_body(std::move(def));  // SoftError: nothing was created
     w->coupling().refresh_embedding();  // an embedded body has its proxy at once
     *out = {pack_world(world), id.index, id.generation};
+    // Created, but past its method's documented stability limit at the world's step: the host hears now,
+    // not when the body turns non-finite.
+    const std::string warning = stability_warning(w->soft().body(id), w->settings().time_step);
+    if (!warning.empty())
+        log_message(SINEW_LOG_WARNING, std::string(fn) + ": soft body {index " + std::to_string(id.index) +
+                                           ", generation " + std::to_string(id.generation) + "}: " + warning);
     return SINEW_OK;
 }
 
@@ -262,7 +269,7 @@ sinew_status sinew_soft_create_cloth(sinew_world_id world, const sinew_soft_def*
         const int corner_i[4] = {0, g.nx - 1, 0, g.nx - 1}, corner_j[4] = {0, 0, g.ny - 1, g.ny - 1};
         for (int k = 0; k < 4; ++k)
             if (c.pinned_corners & (1 << k)) d.pinned.push_back(cloth_node(g, corner_i[k], corner_j[k]));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 
@@ -278,7 +285,7 @@ sinew_status sinew_soft_create_rope(sinew_world_id world, const sinew_soft_def* 
         if (segments < 1 || segments > 100000)
             return invalid(fn, "segments = " + std::to_string(segments) + " must be in [1, 100000]");
         SoftBodyDef d = make_rope(to_vec(from), to_vec(to), segments, Real(def->total_mass), link_material(*def), base_def(*def));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 
@@ -294,7 +301,7 @@ sinew_status sinew_soft_create_icosphere(sinew_world_id world, const sinew_soft_
             return invalid(fn, "subdivisions = " + std::to_string(subdivisions) + " must be in [0, 6]");
         SoftBodyDef d = make_icosphere(to_vec(center), Real(radius), subdivisions, Real(def->total_mass),
                                        link_material(*def), base_def(*def));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 
@@ -325,7 +332,7 @@ sinew_status sinew_soft_create_mesh(sinew_world_id world, const sinew_soft_def* 
                                        " is out of range (" + std::to_string(vertex_count) + " vertices)");
         // Degenerate triangles are the builder's to find (SoftError names the triangle).
         SoftBodyDef d = make_mesh_body(v, idx, link_distance, Real(def->total_mass), link_material(*def), base_def(*def));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 
@@ -523,7 +530,7 @@ sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sinew_soft_de
         // make_tet_box checks the total cell count (SoftError names it).
         SoftBodyDef d = make_tet_body(make_tet_box(to_vec(min_corner), to_vec(size), nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six),
                                       std::move(base));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 
@@ -550,7 +557,7 @@ sinew_status sinew_soft_create_tet_mesh(sinew_world_id world, const sinew_soft_d
         base.fem = fem_material(*material);
         // make_tet_body checks the mesh first (SoftError names the tet, its nodes and its volume).
         SoftBodyDef d = make_tet_body(mesh, std::move(base));
-        return finish_create(w, world, std::move(d), out);
+        return finish_create(fn, w, world, std::move(d), out);
     });
 }
 

@@ -7,6 +7,38 @@
 using namespace sinew;
 using namespace sinew::capi;
 
+namespace {
+
+// One error line per body whose state turned non-finite in the steps just taken (World::faults), naming
+// the body's handle, the first step, the quantity and the method's limit; the last line is also the
+// call's last error. A body that blew up in several of the steps is named once, with the count.
+sinew_status report_faults(const char* fn, const sinew_world_id& world, const std::vector<StepFault>& faults) {
+    std::vector<std::string> lines;
+    std::vector<bool> counted(faults.size(), false);
+    for (std::size_t i = 0; i < faults.size(); ++i) {
+        if (counted[i]) continue;
+        const StepFault& f = faults[i];
+        int repeats = 0;
+        for (std::size_t j = i + 1; j < faults.size(); ++j)
+            if (!counted[j] && faults[j].system == f.system && faults[j].index == f.index &&
+                faults[j].generation == f.generation) {
+                counted[j] = true;
+                ++repeats;
+            }
+        std::string line = std::string(fn) + ": step " + std::to_string(f.step) + ": " + f.system + " body {world " +
+                           std::to_string(world.index) + ", index " + std::to_string(f.index) + ", generation " +
+                           std::to_string(f.generation) + "}: " + f.what +
+                           "; put back where the step found it, at rest";
+        if (repeats > 0) line += " (again in " + std::to_string(repeats) + " later steps of this call)";
+        if (!f.hint.empty()) line += ". " + f.hint;
+        lines.push_back(std::move(line));
+    }
+    for (std::size_t i = 0; i + 1 < lines.size(); ++i) log_message(SINEW_LOG_ERROR, lines[i]);
+    return fail(SINEW_ERROR_NON_FINITE, lines.back());
+}
+
+}  // namespace
+
 extern "C" {
 
 sinew_world_def sinew_world_def_default(void) {
@@ -88,6 +120,7 @@ sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_take
                             " s of simulated time were dropped");
         if (steps_taken) *steps_taken = n;
         if (alpha) *alpha = float(w->interpolation_alpha());
+        if (!w->faults().empty()) return report_faults("sinew_world_step", id, w->faults());
         return SINEW_OK;
     });
 }
@@ -99,6 +132,7 @@ sinew_status sinew_world_step_fixed(sinew_world_id id) {
         if (sinew_status s = check_not_stepping(e->world.get(), "sinew_world_step_fixed")) return s;
         e->events.clear();
         e->world->step();
+        if (!e->world->faults().empty()) return report_faults("sinew_world_step_fixed", id, e->world->faults());
         return SINEW_OK;
     });
 }

@@ -52,8 +52,12 @@ typedef enum sinew_status {
     SINEW_ERROR_STALE_ID = 3,         /* null, destroyed or foreign handle */
     SINEW_ERROR_IN_STEP = 4,          /* the world is stepping */
     SINEW_ERROR_INTERNAL = 5,         /* out of memory or a bug: the message says which */
-    SINEW_ERROR_SCENE = 6             /* a scene file is missing, malformed or invalid: the message names the
+    SINEW_ERROR_SCENE = 6,            /* a scene file is missing, malformed or invalid: the message names the
                                          file and the JSON pointer of the offending value */
+    SINEW_ERROR_NON_FINITE = 7        /* a step: a body's state turned non-finite (a method past its stability
+                                         limit, a motor beyond what the solver holds); it was put back where
+                                         the step found it, at rest, and the world steps on. The log has one
+                                         error line per body naming it, the step and the method's limit */
 } sinew_status;
 
 typedef struct sinew_vec3 { float x, y, z; } sinew_vec3;
@@ -114,9 +118,10 @@ SINEW_API sinew_world_def sinew_world_def_default(void);
 SINEW_API sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out);
 SINEW_API sinew_status sinew_world_destroy(sinew_world_id world);
 /** Game-loop stepping: adds frame_dt (s, >= 0) to the accumulator and runs whole fixed steps.
- *  steps_taken and alpha (interpolation fraction in [0, 1)) may be NULL. */
+ *  steps_taken and alpha (interpolation fraction in [0, 1)) may be NULL and are set on
+ *  SINEW_ERROR_NON_FINITE too (the steps were taken). */
 SINEW_API sinew_status sinew_world_step(sinew_world_id world, float frame_dt, int* steps_taken, float* alpha);
-/** Exactly one fixed step of the world's time_step. */
+/** Exactly one fixed step of the world's time_step (SINEW_ERROR_NON_FINITE as sinew_world_step). */
 SINEW_API sinew_status sinew_world_step_fixed(sinew_world_id world);
 SINEW_API sinew_status sinew_world_body_count(sinew_world_id world, int* out);
 /** Bulk read for rendering: up to capacity bodies, in creation order, ids and transforms (either array

@@ -50,6 +50,12 @@ void World::set_gravity(const Vec3& g) {
 }
 
 void World::step() {
+    faults_.clear();
+    step_once();
+}
+
+void World::step_once() {
+    const std::uint64_t index = pipeline_.step_count();
     struct Guard {
         bool& flag;
         explicit Guard(bool& f) : flag(f) { flag = true; }
@@ -57,15 +63,21 @@ void World::step() {
     } guard(in_step_);
     pipeline_.step(settings_.time_step);
     time_ += settings_.time_step;
+    for (const std::vector<StepFault>* found : {&rigid_->faults(), &soft_->faults()})
+        for (const StepFault& f : *found) {
+            faults_.push_back(f);
+            faults_.back().step = index;
+        }
 }
 
 int World::advance(Real frame_dt) {
     if (!is_finite(frame_dt) || frame_dt < 0)
         throw std::invalid_argument("frame_dt must be finite and >= 0, got " + std::to_string(frame_dt));
     accumulator_ += frame_dt;
+    faults_.clear();
     int steps = 0;
     while (accumulator_ >= settings_.time_step && steps < settings_.max_steps_per_frame) {
-        step();
+        step_once();
         accumulator_ -= settings_.time_step;
         ++steps;
     }

@@ -57,8 +57,14 @@ public:
     std::uint64_t step_count() const { return pipeline_.step_count(); }
     /// True while a step is running (hooks run then); the C API rejects mutations during a step.
     bool in_step() const { return in_step_; }
+    /// Bodies whose state turned non-finite in the steps of the last step() or advance() call, in the
+    /// order found (rigid before soft within a step). Each was put back where its step found it, at rest
+    /// (engine/core/step_fault.hpp); the world is valid and steps on.
+    const std::vector<StepFault>& faults() const { return faults_; }
 
 private:
+    void step_once();
+
     WorldSettings settings_;
     Pipeline pipeline_;
     std::unique_ptr<RigidSystem> rigid_;
@@ -67,6 +73,7 @@ private:
     Real accumulator_ = 0;
     double time_ = 0;
     bool in_step_ = false;
+    std::vector<StepFault> faults_;
 };
 
 }  // namespace sinew

@@ -270,7 +270,7 @@ ClothRun run_sinew(const ClothScene& s, const SinewSetting& v, int steps, BenchC
         // A finite position can still be 1e30 (an exploded cloth in float): its stretch overflows, so an
         // infinite stretch counts as not finite too.
         const double stretch = link_stretch(soft.body(id), nullptr);
-        if (!soft.all_finite() || !std::isfinite(stretch)) {
+        if (!soft.faults().empty() || !soft.all_finite() || !std::isfinite(stretch)) {
             run.finite = false;
             break;
         }

@@ -78,7 +78,7 @@ CouplingRun run_one(const SceneDesc& scene, CouplingStrategy strategy, double se
         const double t0 = bench_clock_ms(clock);
         w->step();
         ms.push_back(bench_clock_ms(clock) - t0);
-        r.finite = w->rigid().all_finite() && w->soft().all_finite();
+        r.finite = w->faults().empty() && w->rigid().all_finite() && w->soft().all_finite();
         ++r.steps;
         if (s >= steps - last_second)
             for (const CouplingImpulse& c : w->coupling().impulses())

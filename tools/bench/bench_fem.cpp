@@ -193,7 +193,7 @@ FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock
         pipeline.step(s.h);
         ms.push_back(bench_clock_ms(clock) - t0);
         ++run.steps;
-        if (!soft.all_finite()) {
+        if (!soft.faults().empty() || !soft.all_finite()) {  // a blow-up the step contained, or not
             run.finite = false;
             break;
         }
