@@ -305,6 +305,10 @@ void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
 
 BodyType RigidSystem::type(BodyId id) const { check(id, "type"); return type_[id.index]; }
 Real RigidSystem::mass(BodyId id) const { check(id, "mass"); return mass_[id.index]; }
+const Mat3& RigidSystem::inverse_inertia_local(BodyId id) const {
+    check(id, "inverse_inertia_local");
+    return inv_inertia_local_[id.index];
+}
 Real RigidSystem::linear_damping(BodyId id) const { check(id, "linear_damping"); return linear_damping_[id.index]; }
 Real RigidSystem::angular_damping(BodyId id) const { check(id, "angular_damping"); return angular_damping_[id.index]; }
 Real RigidSystem::gravity_scale(BodyId id) const { check(id, "gravity_scale"); return gravity_scale_[id.index]; }

@@ -101,6 +101,8 @@ public:
     void apply_impulse(BodyId id, const Vec3& impulse, const Vec3& world_point);
     BodyType type(BodyId id) const;
     Real mass(BodyId id) const;
+    /// Inverse inertia about the centre of mass in the body's own axes (zero for static and kinematic bodies).
+    const Mat3& inverse_inertia_local(BodyId id) const;
     Real linear_damping(BodyId id) const;   ///< 1/s, as created
     Real angular_damping(BodyId id) const;  ///< 1/s, as created
     Real gravity_scale(BodyId id) const;

@@ -238,6 +238,11 @@ TEST_CASE("C API joints: bad input is rejected with a status, a message and an u
     sinew_joint_def bad = good;
     poke(bad.type, 7);
     expect(sinew_joint_create(r.world, &bad, &out), SINEW_ERROR_INVALID_ARGUMENT, "def->type = 7");
+    // Issue 18: an anchor 40 km from a 0.5 m box (1000 radii of gyration are 204 m) turned the first step NaN.
+    bad = good;
+    bad.local_anchor_b = {40000, 0, 0};
+    expect(sinew_joint_create(r.world, &bad, &out), SINEW_ERROR_INVALID_ARGUMENT,
+           "local_anchor_b (40000, 0, 0) lies 40000 m from body_b's centre of mass, more than 1000 times");
     bad = good;
     bad.body_a = sinew_body_id{};
     expect(sinew_joint_create(r.world, &bad, &out), SINEW_ERROR_STALE_ID, "def->body_a is the null handle");
