@@ -47,15 +47,19 @@ void RigidSystem::detect_collisions(Real h) {
     }
 
     // Each body's detection pose once per step (a body is in several pairs), with its rotation as a
-    // matrix: carrying a cached manifold's points costs two rotations per point.
+    // matrix: carrying a cached manifold's points costs two rotations per point. Computed when a pair
+    // first needs it: a pair of sleeping or static bodies needs none (50,176 boxes asleep on the ground
+    // spent 0.7 ms a step placing every body).
     const std::size_t slots = slots_.size();
     detect_xf_.resize(slots);
     detect_rot_.resize(slots);
-    for (std::uint32_t s = 0; s < slots; ++s) {
-        if (!slots_.alive(s)) continue;
+    detect_placed_.assign(slots, 0);
+    auto place = [&](std::uint32_t s) {
+        if (detect_placed_[s]) return;
+        detect_placed_[s] = 1;
         detect_xf_[s] = detection_transform(s, h);
         detect_rot_[s] = detect_xf_[s].q.toRotationMatrix();
-    }
+    };
 
     std::swap(prev_contacts_, contacts_);
     contacts_.clear();
@@ -76,6 +80,8 @@ void RigidSystem::detect_collisions(Real h) {
             for (std::size_t i = prev_i; i < prev_end; ++i) contacts_.push_back(prev_contacts_[i]);
             continue;
         }
+        place(a);
+        place(b);
         const Transform& xa = detect_xf_[a];
         const Transform& xb = detect_xf_[b];
         const Mat3& rot_a = detect_rot_[a];

@@ -95,7 +95,8 @@ void RigidSystem::integrate_positions(Real h) {
 
 void RigidSystem::contain_non_finite() {
     for (std::uint32_t s = 0; s < slots_.size(); ++s) {
-        if (!slots_.alive(s) || type_[s] == BodyType::Static) continue;
+        // A sleeping body has not moved since it was checked awake.
+        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
         // A finite orientation far from unit length (zero, after normalising an overflowed one) is as
         // broken as a NaN: every later rotation of the body is.
         const Real q2 = state_.q[s].squaredNorm();

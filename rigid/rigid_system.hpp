@@ -286,6 +286,7 @@ private:
     std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;
     std::vector<Transform> detect_xf_;  ///< per slot: where DetectCollisions places the body this step
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
+    std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
     ManifoldList scratch_;

@@ -177,6 +177,12 @@ private:
     Kernels kernels_{};
     BatchInputs inputs_;
     std::int32_t pad_ = 0;  // index of the padding body
+    /// Slots that move in this step's solve (inverse mass, or a velocity: kinematic), in slot order; the
+    /// sub-steps' per-body loops run over these alone while moving_only_ (for_each_body).
+    std::vector<std::uint32_t> moving_;
+    bool moving_only_ = false;
+    template <class F>
+    void for_each_body(std::size_t count, F&& f) const;
     bool pending_ = false;
     Real h_sub_ = 0;
 };
@@ -326,22 +332,31 @@ void SoftStepSolver::store_impulses(RigidSystem& sys) const {
     }
 }
 
-void SoftStepSolver::bodies_to_state(RigidSystem::State& st) const {
-    for (std::size_t s = 0; s < st.v.size(); ++s) {
-        const WideBody& b = bodies_[s];
-        st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
-        st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+template <class F>
+void SoftStepSolver::for_each_body(std::size_t count, F&& f) const {
+    if (moving_only_) {
+        for (std::uint32_t s : moving_) f(s);
+    } else {
+        for (std::size_t s = 0; s < count; ++s) f(s);
     }
 }
 
+void SoftStepSolver::bodies_to_state(RigidSystem::State& st) const {
+    for_each_body(st.v.size(), [&](std::size_t s) {
+        const WideBody& b = bodies_[s];
+        st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
+        st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+    });
+}
+
 void SoftStepSolver::bodies_from_state(const RigidSystem::State& st) {
-    for (std::size_t s = 0; s < st.v.size(); ++s) {
+    for_each_body(st.v.size(), [&](std::size_t s) {
         WideBody& b = bodies_[s];
         for (int i = 0; i < 3; ++i) {
             b.v[i] = st.v[s][i];
             b.w[i] = st.w[s][i];
         }
-    }
+    });
 }
 
 void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
@@ -351,6 +366,14 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     RigidSystem::State& st = sys.state();
     const std::size_t nb = st.x.size();
     bodies_.assign(nb + 1, WideBody{});  // zero motion since the step began; the padding body at rest
+    // The sub-steps below touch only the bodies that move: nothing in the solve moves a static, sleeping
+    // or resting kinematic body. 50,176 boxes asleep on the ground cost 9.3-10.5 ms a step when each of
+    // the sub-steps' copies and integrations ran over every slot (finish_step still does: a coupling
+    // hook before it may set a velocity anywhere).
+    moving_.clear();
+    for (std::uint32_t s = 0; s < nb; ++s)
+        if (st.inv_mass[s] != 0 || !st.v[s].isZero() || !st.w[s].isZero()) moving_.push_back(s);
+    moving_only_ = true;
     kernels_ = kernels_for(active_simd_kernel());
     prepare(sys, h_sub);
     // Joints and other outside rows are soft too (Box2D v3: twice the contact stiffness, damping ratio 2);
@@ -378,6 +401,7 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     // Hand the velocities to the pipeline: a coupling hook between SolveVelocities and
     // IntegratePositions (seed 001 Figure 9) still changes the last sub-step's positions.
     bodies_to_state(st);
+    moving_only_ = false;
     pending_ = true;
 }
 
@@ -385,17 +409,17 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
     RigidSystem::State& st = sys.state();
     const std::size_t nb = st.x.size();
     // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
-    for (std::size_t s = 0; s < nb; ++s) {
+    for_each_body(nb, [&](std::size_t s) {
         WideBody& b = bodies_[s];
         const Vec3 v(b.v[0], b.v[1], b.v[2]), w(b.w[0], b.w[1], b.w[2]);
-        if (st.inv_mass[s] == 0 && v.isZero() && w.isZero()) continue;
+        if (st.inv_mass[s] == 0 && v.isZero() && w.isZero()) return;
         st.x[s] += h_sub_ * v;
         st.q[s] = integrate_rotation(st.q[s], w, h_sub_);
         for (int i = 0; i < 3; ++i) {
             b.dp[i] += h_sub_ * v[i];
             b.dth[i] += h_sub_ * w[i];
         }
-    }
+    });
     // The outside sources move their own bodies over the same sub-step, then relax with the contacts.
     const BodyVelocities vel = body_view();
     for (ConstraintRows* rows : sys.row_sources()) rows->positions_advanced(sys, vel, h_sub_);
