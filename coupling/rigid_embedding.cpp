@@ -232,7 +232,8 @@ void RigidEmbedding::begin_step(Real) {
     try {
         update_membership(settings_);  // soft bodies created, destroyed or pinned since
     } catch (const CouplingError&) {
-        // A body diverged to non-finite nodes: its proxy stays as it was (SoftSystem::all_finite() tells).
+        // A body diverged to non-finite nodes: its proxy stays as it was (SoftSystem::faults() tells; the
+        // soft step contains it in IntegratePositions).
     }
     for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
         Proxy& px = proxies_[s];

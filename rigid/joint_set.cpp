@@ -166,15 +166,15 @@ Vec3 local_com(const RigidSystem& sys, BodyId id) {
 // 1e6 (float's epsilon is 1.2e-7): a 0.5 m box may be held from 204 m away.
 constexpr Real kMaxArmInRadiiOfGyration = 1000;
 
-void check_lever_arm(const JointDef& d, const RigidSystem& sys, BodyId id, const Vec3& arm, const char* anchor,
-                     const char* body) {
+void check_lever_arm(const JointDef& d, const RigidSystem& sys, BodyId id, const Vec3& anchor_value,
+                     const Vec3& arm, const char* anchor, const char* body) {
     if (sys.type(id) != BodyType::Dynamic) return;  // static and kinematic bodies have no effective mass to lose
     const Mat3& inv_i = sys.inverse_inertia_local(id);
     const Real largest = inv_i.selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff();  // 1 / I_min
     const Real k = std::sqrt(1 / (sys.mass(id) * largest));  // smallest radius of gyration (m)
     const Real r = arm.norm();
     if (!(r <= kMaxArmInRadiiOfGyration * k))
-        bad(d, std::string(anchor) + " " + to_text(arm) + " lies " + to_text(r) + " m from " + body +
+        bad(d, std::string(anchor) + " " + to_text(anchor_value) + " lies " + to_text(r) + " m from " + body +
                    "'s centre of mass, more than " + to_text(kMaxArmInRadiiOfGyration) +
                    " times its smallest radius of gyration (" + to_text(k) +
                    " m): the joint's effective mass would not be representable; put the anchor nearer the body");
@@ -194,8 +194,8 @@ JointId JointSet::create(const JointDef& def, const RigidSystem& sys) {
     const Quat qa = st.q[def.body_a.index], qb = st.q[def.body_b.index];
     j.la = def.local_anchor_a - local_com(sys, def.body_a);
     j.lb = def.local_anchor_b - local_com(sys, def.body_b);
-    check_lever_arm(def, sys, def.body_a, j.la, "local_anchor_a", "body_a");
-    check_lever_arm(def, sys, def.body_b, j.lb, "local_anchor_b", "body_b");
+    check_lever_arm(def, sys, def.body_a, def.local_anchor_a, j.la, "local_anchor_a", "body_a");
+    check_lever_arm(def, sys, def.body_b, def.local_anchor_b, j.lb, "local_anchor_b", "body_b");
     const bool has_axis = def.type == JointType::Hinge || def.type == JointType::Slider;
     j.axis_a = has_axis ? Vec3(def.local_axis_a.normalized()) : Vec3::UnitZ();
     if (has_axis) j.def.local_axis_a = j.axis_a;

@@ -127,6 +127,14 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     state_.inv_inertia_world[slot] = r * inv_inertia_local_[slot] * r.transpose();
     state_.force[slot].setZero();
     state_.torque[slot].setZero();
+    // Where contain_non_finite puts it back should it blow up in the step it was created in (a reused
+    // slot must not keep its former body's start pose).
+    if (start_x_.size() <= slot) {
+        start_x_.resize(std::size_t(slot) + 1, Vec3::Zero());
+        start_q_.resize(std::size_t(slot) + 1, Quat::Identity());
+    }
+    start_x_[slot] = state_.x[slot];
+    start_q_[slot] = state_.q[slot];
     proxy_[slot] = tree_.create(box, slot, settings_.contact_margin);
     return {slot, got.generation};
 }

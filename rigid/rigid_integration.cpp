@@ -107,13 +107,13 @@ void RigidSystem::contain_non_finite() {
         else if (!(std::abs(q2 - 1) < Real(0.1)))
             what = "orientation is not a unit quaternion (|q|^2 = " + to_text(q2) + ")";
         else if (!(state_.v[s].squaredNorm() < fast))
-            what = "speed " + to_text(state_.v[s].norm()) + " m/s is not finite or beyond " + to_text(kBlowUpSpeed);
+            what = "speed " + to_text(state_.v[s].stableNorm()) + " m/s is not finite or beyond " + to_text(kBlowUpSpeed);
         else if (!(state_.w[s].squaredNorm() < fast))
-            what = "spin " + to_text(state_.w[s].norm()) + " rad/s is not finite or beyond " + to_text(kBlowUpSpeed);
+            what = "spin " + to_text(state_.w[s].stableNorm()) + " rad/s is not finite or beyond " + to_text(kBlowUpSpeed);
         else
             continue;
-        // Back where the step found it, at rest: a body created during the step has no start pose and
-        // stays where it was created only if that was finite (it was: creation refuses anything else).
+        // Back where the step found it, at rest (a body created during the step: where it was created,
+        // create_body writes its start pose).
         if (s < start_x_.size() && start_x_[s].allFinite() && std::abs(start_q_[s].squaredNorm() - 1) < Real(0.1)) {
             state_.x[s] = start_x_[s];
             state_.q[s] = start_q_[s];
@@ -127,13 +127,14 @@ void RigidSystem::contain_non_finite() {
         for (ContactManifold& c : contacts_) {
             if (c.body_a != s && c.body_b != s) continue;
             for (int k = 0; k < c.manifold.count; ++k) {
-                c.manifold.points[k].normal_impulse = 0;
-                c.manifold.points[k].tangent_impulse[0] = c.manifold.points[k].tangent_impulse[1] = 0;
+                ContactPoint& p = c.manifold.points[k];
+                p.normal_impulse = p.total_normal_impulse = 0;  // what events and coupling layers read too
+                p.tangent_impulse[0] = p.tangent_impulse[1] = 0;
             }
         }
         joints_->forget_impulses(s);
         StepFault f;
-        f.system = "rigid";
+        f.system = StepFault::System::Rigid;
         f.index = s;
         f.generation = slots_.generation(s);
         f.what = std::move(what);

@@ -249,8 +249,8 @@ private:
     State state_;
     // cold per-slot data
     Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
-    std::vector<Vec3> start_x_;    ///< state_.x and state_.q at the start of the step, to put a body back
-    std::vector<Quat> start_q_;    ///<   whose state turned non-finite (contain_non_finite)
+    std::vector<Vec3> start_x_;    ///< state_.x and state_.q at the start of the step (or at creation), to
+    std::vector<Quat> start_q_;    ///<   put back a body whose state turned non-finite (contain_non_finite)
     std::vector<StepFault> faults_;
     std::vector<BodyType> type_;
     std::vector<Shape> shape_;

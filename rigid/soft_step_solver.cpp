@@ -372,7 +372,7 @@ void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
     // hook before it may set a velocity anywhere).
     moving_.clear();
     for (std::uint32_t s = 0; s < nb; ++s)
-        if (st.inv_mass[s] != 0 || !st.v[s].isZero() || !st.w[s].isZero()) moving_.push_back(s);
+        if (st.inv_mass[s] != 0 || st.v[s] != Vec3::Zero() || st.w[s] != Vec3::Zero()) moving_.push_back(s);
     moving_only_ = true;
     kernels_ = kernels_for(active_simd_kernel());
     prepare(sys, h_sub);

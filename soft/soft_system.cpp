@@ -269,6 +269,7 @@ void SoftSystem::run_stage(Stage stage, const StepContext& ctx) {
     switch (stage) {
         case Stage::IntegrateVelocities:
             faults_.clear();
+            faulted_.assign(bodies_.size(), 0);
             integrate_velocities(h);
             break;
         case Stage::DetectCollisions: detect_collisions(h); break;
@@ -329,7 +330,7 @@ void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s)) continue;
+        if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;  // put back: sits out the step
         SoftBody& b = bodies_[s];
         b.stepping = false;
         b.gravity = settings_.gravity * b.def.gravity_scale;
@@ -356,7 +357,7 @@ void SoftSystem::begin_step(SoftBody& b, Real h) {
 
 void SoftSystem::detect_collisions(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s)) continue;
+        if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;
         SoftBody& b = bodies_[s];
         if (!b.stepping) {
             // Asleep: woken by a collider that moves near it. The colliders are refreshed just before
@@ -459,11 +460,11 @@ void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
         if (!p.x_next[i].allFinite() || !(p.v[i].squaredNorm() < fast)) bad = i;
     if (bad == p.size()) return;
     StepFault f;
-    f.system = "soft";
+    f.system = StepFault::System::Soft;
     f.index = s;
     f.generation = slots_.generation(s);
     f.what = (p.x_next[bad].allFinite()
-                  ? "speed of particle " + std::to_string(bad) + ", " + to_text(p.v[bad].norm()) +
+                  ? "speed of particle " + std::to_string(bad) + ", " + to_text(p.v[bad].stableNorm()) +
                         " m/s, is not finite or beyond " + to_text(kBlowUpSpeed)
                   : "position of particle " + std::to_string(bad) + " is not finite") +
              " (" + soft_method_name(b.def.method) + ")";
@@ -478,6 +479,16 @@ void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
         p.v_solved[i].setZero();
         p.f[i].setZero();
     }
+    // Nothing of the blown-up solve carries over: implicit Euler's warm start (its last dv), the contact
+    // arrays the solve filled, the FEM rotations' warm start. The body sits out the step's other sub-steps.
+    b.implicit_cache.reset();
+    for (std::vector<Vec3>* a : {&b.contact_normal, &b.contact_share_impulse, &b.attachment_impulse})
+        for (Vec3& x : *a) x.setZero();
+    std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
+    if (b.fem)
+        for (Quat& q : b.fem->polar)
+            if (!q.coeffs().allFinite()) q = Quat::Identity();
+    faulted_[s] = 1;
 }
 
 void SoftSystem::update_sleep(SoftBody& b, Real h) {

@@ -127,7 +127,8 @@ private:
     void solve_velocities(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
-    /// IntegratePositions: puts body `s` back where the step found it if its particles are not finite.
+    /// IntegratePositions: puts body `s` back where the (sub-)step found it if its particles are not
+    /// finite or too fast; it then sits out the step's other sub-steps, so the step ends with it there.
     void contain_non_finite(std::uint32_t s, Real h);
     /// Keeps the contacts the contact pass appended from `first` as the body's per-particle contact
     /// normals and collider speeds, for the next step's implicit solve.
@@ -141,6 +142,7 @@ private:
     std::vector<Collider> colliders_;
     std::vector<ParticleContact> contacts_;
     std::vector<StepFault> faults_;
+    std::vector<std::uint8_t> faulted_;  ///< by slot: put back this step (contain_non_finite), sits out its sub-steps
     std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
 };
 

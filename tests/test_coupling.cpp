@@ -463,7 +463,7 @@ TowRun tow(double crate_mass, CouplingStrategy strategy) {
     TowRun r;
     for (int s = 0; s < 600 && r.finite; ++s) {
         w->step();
-        r.finite = w->rigid().all_finite() && w->soft().all_finite();
+        r.finite = w->faults().empty() && w->rigid().all_finite() && w->soft().all_finite();
         const Particles& p = w->soft().body(rope).p;
         double length = 0;
         for (std::size_t i = 1; i < p.size(); ++i) length += double((p.x[i] - p.x[i - 1]).norm());

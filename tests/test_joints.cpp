@@ -791,7 +791,7 @@ TEST_CASE("a hinge motor far beyond its arm's inertia blows up; the step names t
         REQUIRE(world->faults().size() == 1);
         const StepFault& f = world->faults()[0];
         INFO(f.what);
-        CHECK(std::string(f.system) == "rigid");
+        CHECK(f.system == StepFault::System::Rigid);
         CHECK(f.index == arm.index);
         CHECK(f.generation == arm.generation);
         CHECK(f.step == std::uint64_t(k));

@@ -244,9 +244,11 @@ Run simulate(SoftSystem& sys, SoftBodyId id, Real h, double seconds, double wind
     int samples = 0;
     StepContext ctx;
     ctx.h = h;
+    bool faulted = false;  // a blow-up the step contained leaves the state finite (SoftSystem::faults)
     for (int n = 0; n < steps; ++n) {
         ctx.step_index = std::uint64_t(n);
         for (int s = 0; s < kStageCount; ++s) sys.run_stage(static_cast<Stage>(s), ctx);
+        faulted = faulted || !sys.faults().empty();
         const double v = b.volume();
         if (n >= first_skip) {
             run.volume_min = std::min(run.volume_min, v);
@@ -260,7 +262,7 @@ Run simulate(SoftSystem& sys, SoftBodyId id, Real h, double seconds, double wind
     run.volume_mean /= std::max(1, samples);
     run.kinetic = b.kinetic_energy();
     run.com_end = centre_of_mass(b);
-    run.finite = sys.all_finite();
+    run.finite = !faulted && sys.all_finite();
     run.lowest = 1e30;
     for (const Vec3& x : b.p.x) run.lowest = std::min(run.lowest, double(x.y()));
     return run;

@@ -63,7 +63,7 @@ RunOptions parse_options(const std::vector<std::string>& args) {
 // "rigid body 'crate'" / "soft body 'cloth'": the scene's name of the body a fault names (the world was
 // built from the scene: rigid ids in `ids`, soft bodies in file order).
 std::string body_name(const SceneDesc& scene, const std::vector<BodyId>& ids, const World& world, const StepFault& f) {
-    const bool soft = std::string(f.system) == "soft";
+    const bool soft = f.system == StepFault::System::Soft;
     std::string name;
     if (soft) {
         const std::vector<SoftBodyId> soft_ids = world.soft().bodies();
@@ -73,7 +73,7 @@ std::string body_name(const SceneDesc& scene, const std::vector<BodyId>& ids, co
         for (std::size_t i = 0; i < ids.size() && i < scene.bodies.size(); ++i)
             if (ids[i].index == f.index) name = scene.bodies[i].name;
     }
-    return std::string(f.system) + " body '" + (name.empty() ? "#" + std::to_string(f.index) : name) + "'";
+    return std::string(f.system_name()) + " body '" + (name.empty() ? "#" + std::to_string(f.index) : name) + "'";
 }
 
 // Measurements are printed to a sensible number of significant digits rather than as 17-digit doubles.
@@ -107,7 +107,8 @@ int run(const std::vector<std::string>& args) {
     {
         const std::vector<SoftBodyId> soft_ids = world->soft().bodies();
         for (std::size_t i = 0; i < soft_ids.size() && i < scene.soft_bodies.size(); ++i) {
-            const std::string w = stability_warning(world->soft().body(soft_ids[i]), world->settings().time_step);
+            const Real h = world->settings().time_step / Real(world->soft().substeps());  // the step it takes
+            const std::string w = stability_warning(world->soft().body(soft_ids[i]), h);
             if (!w.empty()) std::cerr << "sinew run: warning: soft body '" << scene.soft_bodies[i].name << "': " << w << '\n';
         }
     }
@@ -134,8 +135,8 @@ int run(const std::vector<std::string>& args) {
         ++done;
         // Stop at the first blow-up: later steps would measure a body put back at rest (World::faults).
         for (const StepFault& f : world->faults())
-            std::cerr << "sinew run: step " << f.step << ": " << body_name(scene, ids, *world, f) << ": " << f.what
-                      << "; put back where the step found it, at rest. " << f.hint << '\n';
+            std::cerr << "sinew run: step " << f.step << ": " << body_name(scene, ids, *world, f) << ": " << f.outcome()
+                      << '\n';
         finite = world->faults().empty() && rigid.all_finite() && soft.all_finite();
         max_penetration = std::max(max_penetration, static_cast<double>(rigid.max_penetration()));
         if (recorder) recorder->write_frame(*world, static_cast<std::uint64_t>(done));

@@ -43,6 +43,9 @@ sinew_status check_not_stepping(const World* w, const char* fn);
 BodyId find_body(sinew_body_id id, const char* fn, World** world);
 /// Body handles carry their world as (generation << 16) | index.
 std::uint32_t pack_world(sinew_world_id id);
+/// Logs a warning naming soft body `id` if it was created past its method's documented stability limit
+/// at the step it takes (soft/soft_stability.hpp).
+void warn_if_unstable(const char* fn, sinew_world_id world, const World& w, SoftBodyId id);
 sinew_world_id world_of(sinew_body_id id);
 
 /// Registers a world (its entry is allocated through the current host hooks). Throws on failure, and the

@@ -34,8 +34,8 @@ extern "C" sinew_status sinew_world_create_from_scene_file(const char* path, sin
         std::vector<BodyId> ids;
         std::unique_ptr<World> world;
         try {
-            scene = parse_scene_file(path);  // every error is found here, before a body exists
-            world = build_world(scene, &ids);
+            scene = parse_scene_file(path);  // most errors are found here, before a body exists
+            world = build_world(scene, &ids);  // the rest (a joint's lever arm) while building
         } catch (const SceneError& e) {
             // "FILE: /json/pointer: problem", as the tool prints it.
             return fail(SINEW_ERROR_SCENE, std::string(fn) + ": " + e.what());
@@ -51,6 +51,8 @@ extern "C" sinew_status sinew_world_create_from_scene_file(const char* path, sin
                                         std::to_string(scene.bodies.size()) + " bodies, " +
                                         std::to_string(scene.joints.size()) + " joints, " +
                                         std::to_string(scene.soft_bodies.size()) + " soft bodies");
+        const World& w = *find_world(id, fn);
+        for (SoftBodyId s : w.soft().bodies()) warn_if_unstable(fn, id, w, s);
         *out = id;
         return SINEW_OK;
     });

@@ -102,16 +102,26 @@ sinew_status begin_create(const char* fn, sinew_world_id world, const sinew_soft
     return SINEW_OK;
 }
 
+}  // namespace
+
+void sinew::capi::warn_if_unstable(const char* fn, sinew_world_id world, const World& w, SoftBodyId id) {
+    // Created, but past its method's documented stability limit at the step it takes (the world's, or a
+    // coupling layer's sub-step): the host hears now, not when the body turns non-finite.
+    const Real h = w.settings().time_step / Real(w.soft().substeps());
+    const std::string warning = stability_warning(w.soft().body(id), h);
+    if (warning.empty()) return;
+    log_message(SINEW_LOG_WARNING, std::string(fn) + ": soft body {world " + std::to_string(pack_world(world)) +
+                                       ", index " + std::to_string(id.index) + ", generation " +
+                                       std::to_string(id.generation) + "}: " + warning);
+}
+
+namespace {
+
 sinew_status finish_create(const char* fn, World* w, sinew_world_id world, SoftBodyDef def, sinew_soft_body_id* out) {
     const SoftBodyId id = w->soft().create_body(std::move(def));  // SoftError: nothing was created
     w->coupling().refresh_embedding();  // an embedded body has its proxy at once
     *out = {pack_world(world), id.index, id.generation};
-    // Created, but past its method's documented stability limit at the world's step: the host hears now,
-    // not when the body turns non-finite.
-    const std::string warning = stability_warning(w->soft().body(id), w->settings().time_step);
-    if (!warning.empty())
-        log_message(SINEW_LOG_WARNING, std::string(fn) + ": soft body {index " + std::to_string(id.index) +
-                                           ", generation " + std::to_string(id.generation) + "}: " + warning);
+    warn_if_unstable(fn, world, *w, id);
     return SINEW_OK;
 }
 

@@ -25,12 +25,11 @@ sinew_status report_faults(const char* fn, const sinew_world_id& world, const st
                 counted[j] = true;
                 ++repeats;
             }
-        std::string line = std::string(fn) + ": step " + std::to_string(f.step) + ": " + f.system + " body {world " +
-                           std::to_string(world.index) + ", index " + std::to_string(f.index) + ", generation " +
-                           std::to_string(f.generation) + "}: " + f.what +
-                           "; put back where the step found it, at rest";
-        if (repeats > 0) line += " (again in " + std::to_string(repeats) + " later steps of this call)";
-        if (!f.hint.empty()) line += ". " + f.hint;
+        StepFault first = f;
+        if (repeats > 0) first.what += " (and again in " + std::to_string(repeats) + " later steps of this call)";
+        std::string line = std::string(fn) + ": step " + std::to_string(f.step) + ": " + f.system_name() +
+                           " body {world " + std::to_string(pack_world(world)) + ", index " + std::to_string(f.index) +
+                           ", generation " + std::to_string(f.generation) + "}: " + first.outcome();
         lines.push_back(std::move(line));
     }
     for (std::size_t i = 0; i + 1 < lines.size(); ++i) log_message(SINEW_LOG_ERROR, lines[i]);
@@ -110,6 +109,7 @@ sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_take
         const double pending = double(w->interpolation_alpha()) * h + double(frame_dt);
         e->events.clear();
         const int n = w->advance(Real(frame_dt));
+        const std::vector<StepFault> faults = w->faults();  // a log callback below may step the world again
         // The accumulator cap drops what it could not simulate: tell the host (a frame hitch or a world
         // too slow for its time step).
         const double left = pending - n * h;
@@ -120,7 +120,7 @@ sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_take
                             " s of simulated time were dropped");
         if (steps_taken) *steps_taken = n;
         if (alpha) *alpha = float(w->interpolation_alpha());
-        if (!w->faults().empty()) return report_faults("sinew_world_step", id, w->faults());
+        if (!faults.empty()) return report_faults("sinew_world_step", id, faults);
         return SINEW_OK;
     });
 }

@@ -17,12 +17,20 @@ namespace sinew {
 constexpr double kBlowUpSpeed = 1e6;
 
 struct StepFault {
-    const char* system = "";     ///< "rigid" or "soft"
+    enum class System : std::uint8_t { Rigid, Soft };
+    System system = System::Rigid;
     std::uint32_t index = 0;     ///< the body's slot in its system
     std::uint32_t generation = 0;
     std::uint64_t step = 0;      ///< the world's step count when it happened (0 = the first step)
     std::string what;            ///< which quantity was not finite or too fast, with its value
     std::string hint;            ///< the method's stability limit and what to change (may be empty)
+
+    /// "rigid" or "soft".
+    const char* system_name() const { return system == System::Rigid ? "rigid" : "soft"; }
+    /// What happened and what was done, then the hint: the text after a fault's body is named.
+    std::string outcome() const {
+        return what + "; put back where the step found it, at rest" + (hint.empty() ? "" : ". " + hint);
+    }
 };
 
 }  // namespace sinew

@@ -74,6 +74,7 @@ public:
         world_->step();
         set_simd_kernel(SimdKernel::Auto);
     }
+    bool healthy() const override { return world_->faults().empty(); }
     std::vector<Vec3> positions() const override {
         std::vector<Vec3> p;
         p.reserve(dyn_.size());
@@ -107,6 +108,7 @@ void race(std::vector<std::unique_ptr<RigidContender>>& contenders, int steps, B
                 k.step();
                 ms[c].push_back(bench_clock_ms(clock) - t0);
                 const std::vector<Vec3> p = k.positions();
+                if (!k.healthy()) k.run.finite = false;
                 for (const Vec3& x : p)
                     if (!is_finite(x)) k.run.finite = false;
                 if (!k.run.finite) break;

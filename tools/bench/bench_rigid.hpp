@@ -60,6 +60,9 @@ public:
     virtual void step() = 0;
     /// Positions of the dynamic bodies, in a fixed order.
     virtual std::vector<Vec3> positions() const = 0;
+    /// False once the last step blew up, even if the engine contained it and left the state finite
+    /// (Sinew's World::faults).
+    virtual bool healthy() const { return true; }
     RigidRun run;  ///< identity (scene, engine, variant, bodies, iterations) set by the maker
 };
 
