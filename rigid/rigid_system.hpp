@@ -17,6 +17,7 @@
 #include "engine/core/ray_cast.hpp"
 #include "engine/core/slots.hpp"
 #include "engine/core/step_fault.hpp"
+#include "engine/core/task_system.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
@@ -68,6 +69,11 @@ public:
     RigidSystem& operator=(const RigidSystem&) = delete;
 
     const char* name() const override { return "rigid"; }
+    /// The threads a step may use (engine/core/task_system.hpp); null or serial: one. The world sets it.
+    void set_task_system(const TaskSystem* tasks) { tasks_ = tasks; }
+    const TaskSystem* task_system() const { return tasks_; }
+    /// The region the system's parallel stages run in (one at a time).
+    ParallelRegion& region() { return region_; }
     void run_stage(Stage stage, const StepContext& ctx) override;
 
     const RigidSettings& settings() const { return settings_; }
@@ -294,6 +300,8 @@ private:
     std::unique_ptr<JointSet> joints_;
     std::vector<ConstraintRows*> row_sources_;  ///< joints_ first, then add_rows() order
     Real unintegrated_time_ = 0;
+    const TaskSystem* tasks_ = nullptr;
+    ParallelRegion region_;
 };
 
 }  // namespace sinew

@@ -50,13 +50,15 @@ inline BodyR gather(const WideBody* bodies, const std::int32_t* idx) {
     return g;
 }
 
-/// Writes velocities back. Lanes may share a body only if its inverse mass and inertia are zero (static,
-/// kinematic, asleep, or the padding body): its velocity is then unchanged, so write order is moot.
-inline void scatter(WideBody* bodies, const std::int32_t* idx, const BodyR& g) {
+/// Writes velocities back to the moving bodies. `widx` is -1 for a lane whose body the solve cannot move
+/// (static, kinematic, asleep, or the padding body): its unchanged velocity goes to the worker's scratch
+/// row instead, so batches of one colour solved on different threads never write the same body (many
+/// share the ground).
+inline void scatter(WideBody* bodies, const std::int32_t* widx, WideBody* scratch, const BodyR& g) {
     Real* rows[kR];
-    for (int i = 0; i < kR; ++i) rows[i] = bodies[idx[i]].v;
+    for (int i = 0; i < kR; ++i) rows[i] = widx[i] >= 0 ? bodies[widx[i]].v : scratch->v;
     scatter_rows(rows, g.v.x, g.v.y, g.v.z);
-    for (int i = 0; i < kR; ++i) rows[i] = bodies[idx[i]].w;
+    for (int i = 0; i < kR; ++i) rows[i] = widx[i] >= 0 ? bodies[widx[i]].w : scratch->w;
     scatter_rows(rows, g.w.x, g.w.y, g.w.z);
 }
 
@@ -99,7 +101,7 @@ inline void prepare_batch(WideContact& c, const BatchInputs& in) {
     for (int part = 0; part * kR < c.lanes; ++part) prepare_part(c, in, part);
 }
 
-inline void warm_start_all(WideContact* contacts, std::size_t count, WideBody* bodies) {
+inline void warm_start_all(WideContact* contacts, std::size_t count, WideBody* bodies, WideBody* scratch) {
     for (std::size_t ci = 0; ci < count; ++ci) {
         WideContact& c = contacts[ci];
         for (int part = 0; part * kR < c.lanes; ++part) {
@@ -124,13 +126,13 @@ inline void warm_start_all(WideContact* contacts, std::size_t count, WideBody* b
             B.v = B.v + ld(c.inv_mb, part) * j;
             A.w = A.w - ld(c.ia, part) * la;
             B.w = B.w + ld(c.ib, part) * lb;
-            scatter(bodies, ia, A);
-            scatter(bodies, ib, B);
+            scatter(bodies, c.wa + part * kR, scratch, A);
+            scatter(bodies, c.wb + part * kR, scratch, B);
         }
     }
 }
 
-inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies, Real inv_h_sub, Real push_velocity,
+inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies, WideBody* scratch, Real inv_h_sub, Real push_velocity,
                       bool use_bias) {
     const R zero = splat(0), one = splat(1), inv_h = splat(inv_h_sub), min_bias = splat(-push_velocity);
     const R tiny = splat(Real(1e-30));
@@ -218,13 +220,13 @@ inline void solve_all(WideContact* contacts, std::size_t count, WideBody* bodies
             const V3 j = pn * n + p0 * t0 + p1 * t1;
             A.v = A.v - ld(c.inv_ma, part) * j;
             B.v = B.v + ld(c.inv_mb, part) * j;
-            scatter(bodies, ia, A);
-            scatter(bodies, ib, B);
+            scatter(bodies, c.wa + part * kR, scratch, A);
+            scatter(bodies, c.wb + part * kR, scratch, B);
         }
     }
 }
 
-inline void restitution_all(WideContact* contacts, std::size_t count, WideBody* bodies, Real threshold) {
+inline void restitution_all(WideContact* contacts, std::size_t count, WideBody* bodies, WideBody* scratch, Real threshold) {
     const R zero = splat(0), min_speed = splat(-threshold);
     for (std::size_t ci = 0; ci < count; ++ci) {
         WideContact& c = contacts[ci];
@@ -251,8 +253,8 @@ inline void restitution_all(WideContact* contacts, std::size_t count, WideBody* 
                 A.w = A.w - dl * (ld(c.ia, part) * ra_n);
                 B.w = B.w + dl * (ld(c.ib, part) * rb_n);
             }
-            scatter(bodies, ia, A);
-            scatter(bodies, ib, B);
+            scatter(bodies, c.wa + part * kR, scratch, A);
+            scatter(bodies, c.wb + part * kR, scratch, B);
         }
     }
 }

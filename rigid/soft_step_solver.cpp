@@ -50,7 +50,8 @@ struct WidePoint {
 /// Up to kWideLanes manifolds of one colour, solved side by side. Unused lanes point at the padding body
 /// and have zero masses.
 struct WideContact {
-    std::int32_t a[kWideLanes], b[kWideLanes];
+    std::int32_t a[kWideLanes], b[kWideLanes];    // bodies read (immovable ones and the padding body too)
+    std::int32_t wa[kWideLanes], wb[kWideLanes];  // bodies written: a and b where they move, else -1
     Vec3W n, t[2];
     FloatW inv_ma, inv_mb, inv_m_sum, friction, restitution;
     FloatW bias_rate, mass_scale, impulse_scale;  // soft contact (Catto 2011), per lane
@@ -102,10 +103,16 @@ inline R splat(Real x) { return splat_f8(x); }
 /// The kernels of one register type: prepare once per batch, the others once per pass over all batches.
 struct Kernels {
     void (*prepare)(WideContact&, const BatchInputs&);
-    void (*warm_start)(WideContact*, std::size_t, WideBody*);
-    void (*solve)(WideContact*, std::size_t, WideBody*, Real, Real, bool);
-    void (*restitution)(WideContact*, std::size_t, WideBody*, Real);
+    void (*warm_start)(WideContact*, std::size_t, WideBody*, WideBody*);
+    void (*solve)(WideContact*, std::size_t, WideBody*, WideBody*, Real, Real, bool);
+    void (*restitution)(WideContact*, std::size_t, WideBody*, WideBody*, Real);
 };
+
+/// Contact batches a worker claims at a time: a batch is a few hundred nanoseconds of work, a claim one
+/// atomic; colours of fewer batches run on the calling thread alone.
+constexpr int kBatchesPerBlock = 4;
+/// Bodies a worker claims at a time in the per-body loops.
+constexpr int kBodiesPerBlock = 256;
 
 Kernels kernels_for(SimdKernel k) {
     switch (k) {
@@ -147,14 +154,28 @@ public:
     void finish_step(RigidSystem& sys, Real h) override;
 
 private:
+    /// Per-worker scratch sized for the region just opened (solve_velocities and finish_step each run
+    /// in a parallel region of the system's task system).
+    void begin_region(RigidSystem& sys);
+    void solve_in_region(RigidSystem& sys, Real h);
+    void finish_in_region(RigidSystem& sys);
     void colour(RigidSystem& sys);
     void prepare(RigidSystem& sys, Real h_sub);
     /// Prepares batch c from up to kWideLanes manifolds of one colour (`lanes` of them).
     void fill_batch(WideContact& c, const std::uint32_t* manifolds, int lanes, const RigidSystem& sys,
-                    const Softness& soft, const Softness& static_soft);
-    void warm_start() { kernels_.warm_start(contacts_.data(), contacts_.size(), bodies_.data()); }
+                    const Softness& soft, const Softness& static_soft, BatchInputs& in);
+    /// Runs f(first batch, count, worker scratch body) over every batch: colour by colour, each colour's
+    /// batches split among the region's workers (they share no moving body), then the overflow batches
+    /// on the calling thread. The same order as one loop over contacts_ on one thread.
+    template <class F>
+    void per_colour(F&& f);
+    void warm_start() {
+        per_colour([&](WideContact* c, std::size_t n, WideBody* scratch) { kernels_.warm_start(c, n, bodies_.data(), scratch); });
+    }
     void solve(Real inv_h_sub, Real push_velocity, bool use_bias) {
-        kernels_.solve(contacts_.data(), contacts_.size(), bodies_.data(), inv_h_sub, push_velocity, use_bias);
+        per_colour([&](WideContact* c, std::size_t n, WideBody* scratch) {
+            kernels_.solve(c, n, bodies_.data(), scratch, inv_h_sub, push_velocity, use_bias);
+        });
     }
     void clear_impulses() {
         for (WideContact& c : contacts_)
@@ -162,7 +183,11 @@ private:
                 for (FloatW* f : {&c.p[k].normal_impulse, &c.p[k].tangent_impulse[0], &c.p[k].tangent_impulse[1]})
                     *f = FloatW{};
     }
-    void restitution(Real threshold) { kernels_.restitution(contacts_.data(), contacts_.size(), bodies_.data(), threshold); }
+    void restitution(Real threshold) {
+        per_colour([&](WideContact* c, std::size_t n, WideBody* scratch) {
+            kernels_.restitution(c, n, bodies_.data(), scratch, threshold);
+        });
+    }
     void store_impulses(RigidSystem& sys) const;
     BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
     void bodies_to_state(RigidSystem::State& st) const;
@@ -173,9 +198,15 @@ private:
     ConstraintColouring colouring_;
     std::vector<std::uint32_t> by_colour_[ConstraintColouring::kColours + 1];
     std::vector<WideContact> contacts_;
+    /// Batches [colour_start_[c], colour_start_[c + 1]) are colour c's; the overflow colour's come last.
+    std::uint32_t colour_start_[ConstraintColouring::kColours + 2] = {};
     std::vector<WideBody> bodies_;  // one per body slot, then the padding body (always at rest)
     Kernels kernels_{};
-    BatchInputs inputs_;
+    /// Per worker of the region in progress: staged batch inputs and the row immovable bodies' lanes
+    /// write to (kernels' scatter).
+    std::vector<BatchInputs> inputs_;
+    std::vector<WideBody> scratch_;
+    ParallelRegion* region_ = nullptr;
     std::int32_t pad_ = 0;  // index of the padding body
     /// Slots that move in this step's solve (inverse mass, or a velocity: kinematic), in slot order; the
     /// sub-steps' per-body loops run over these alone while moving_only_ (for_each_body).
@@ -206,11 +237,10 @@ void SoftStepSolver::colour(RigidSystem& sys) {
 }
 
 void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, int lanes, const RigidSystem& sys,
-                                const Softness& soft, const Softness& static_soft) {
+                                const Softness& soft, const Softness& static_soft, BatchInputs& in) {
     const RigidSystem::State& st = sys.state();
     const auto& src = sys.contacts();
     const bool warm = sys.settings().warm_starting;
-    BatchInputs& in = inputs_;
     c.lanes = lanes;
     c.max_count = 0;
     c.any_restitution = false;
@@ -223,6 +253,8 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             const std::uint32_t a = cm.body_a, b = cm.body_b;
             c.a[l] = std::int32_t(a);
             c.b[l] = std::int32_t(b);
+            c.wa[l] = st.inv_mass[a] > 0 ? std::int32_t(a) : -1;  // the colouring's "moves"
+            c.wb[l] = st.inv_mass[b] > 0 ? std::int32_t(b) : -1;
             c.manifold[l] = manifolds[l];
             c.count[l] = cm.manifold.count;
             c.max_count = std::max(c.max_count, cm.manifold.count);
@@ -254,6 +286,7 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             }
         } else {
             c.a[l] = c.b[l] = pad_;
+            c.wa[l] = c.wb[l] = -1;
             c.manifold[l] = kNoManifold;
             c.count[l] = 0;
             set_lane(c.n, l, Vec3::UnitY());
@@ -304,21 +337,48 @@ void SoftStepSolver::prepare(RigidSystem& sys, Real h_sub) {
         batches += (by_colour_[c].size() + kWideLanes - 1) / kWideLanes;
     contacts_.resize(batches);
     pad_ = std::int32_t(bodies_.size() - 1);
-    std::size_t next = 0;
+    std::uint32_t next = 0;
     for (int col = 0; col < ConstraintColouring::kColours; ++col) {
-        const auto& list = by_colour_[col];
-        for (std::size_t i = 0; i < list.size(); i += kWideLanes)
-            fill_batch(contacts_[next++], list.data() + i, int(std::min<std::size_t>(kWideLanes, list.size() - i)), sys,
-                       soft, static_soft);
+        colour_start_[col] = next;
+        next += std::uint32_t((by_colour_[col].size() + kWideLanes - 1) / kWideLanes);
     }
-    // Overflow: one manifold per batch, so lanes never share a moving body.
-    for (const std::uint32_t& ci : by_colour_[ConstraintColouring::kOverflow])
-        fill_batch(contacts_[next++], &ci, 1, sys, soft, static_soft);
+    colour_start_[ConstraintColouring::kOverflow] = next;
+    colour_start_[ConstraintColouring::kOverflow + 1] = std::uint32_t(batches);
+    // Each batch is filled from its colour's list on its own (batches write only themselves).
+    region_->for_each(int(batches), kBatchesPerBlock, [&](int begin, int end, int worker) {
+        int col = 0;
+        for (int i = begin; i < end; ++i) {
+            while (std::uint32_t(i) >= colour_start_[col + 1]) ++col;
+            const auto& list = by_colour_[col];
+            if (col == ConstraintColouring::kOverflow) {
+                // Overflow: one manifold per batch, so lanes never share a moving body.
+                fill_batch(contacts_[i], &list[i - colour_start_[col]], 1, sys, soft, static_soft, inputs_[worker]);
+            } else {
+                const std::size_t first = std::size_t(i - colour_start_[col]) * kWideLanes;
+                fill_batch(contacts_[i], list.data() + first, int(std::min<std::size_t>(kWideLanes, list.size() - first)),
+                           sys, soft, static_soft, inputs_[worker]);
+            }
+        }
+    });
+}
+
+template <class F>
+void SoftStepSolver::per_colour(F&& f) {
+    for (int col = 0; col < ConstraintColouring::kColours; ++col) {
+        const int first = int(colour_start_[col]), count = int(colour_start_[col + 1]) - first;
+        region_->for_each(count, kBatchesPerBlock, [&](int begin, int end, int worker) {
+            f(contacts_.data() + first + begin, std::size_t(end - begin), &scratch_[worker]);
+        });
+    }
+    const std::uint32_t first = colour_start_[ConstraintColouring::kOverflow];
+    if (contacts_.size() > first) f(contacts_.data() + first, contacts_.size() - first, &scratch_[0]);
 }
 
 void SoftStepSolver::store_impulses(RigidSystem& sys) const {
     std::vector<ContactManifold>& dst = sys.mutable_contacts();
-    for (const WideContact& c : contacts_) {
+    region_->for_each(int(contacts_.size()), 4 * kBatchesPerBlock, [&](int begin, int end, int) {
+    for (int i = begin; i < end; ++i) {
+        const WideContact& c = contacts_[std::size_t(i)];
         for (int l = 0; l < kWideLanes; ++l) {
             if (c.manifold[l] == kNoManifold) continue;
             Manifold& m = dst[c.manifold[l]].manifold;
@@ -330,14 +390,20 @@ void SoftStepSolver::store_impulses(RigidSystem& sys) const {
             }
         }
     }
+    });
 }
 
 template <class F>
 void SoftStepSolver::for_each_body(std::size_t count, F&& f) const {
+    // Each call of f touches its own body alone, so the region's workers share the loop.
     if (moving_only_) {
-        for (std::uint32_t s : moving_) f(s);
+        region_->for_each(int(moving_.size()), kBodiesPerBlock, [&](int begin, int end, int) {
+            for (int i = begin; i < end; ++i) f(std::size_t(moving_[std::size_t(i)]));
+        });
     } else {
-        for (std::size_t s = 0; s < count; ++s) f(s);
+        region_->for_each(int(count), kBodiesPerBlock, [&](int begin, int end, int) {
+            for (int s = begin; s < end; ++s) f(std::size_t(s));
+        });
     }
 }
 
@@ -360,6 +426,21 @@ void SoftStepSolver::bodies_from_state(const RigidSystem::State& st) {
 }
 
 void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
+    sys.region().run(sys.task_system(), [&] {
+        begin_region(sys);
+        solve_in_region(sys, h);
+    });
+    region_ = nullptr;
+}
+
+void SoftStepSolver::begin_region(RigidSystem& sys) {
+    region_ = &sys.region();
+    const std::size_t workers = std::size_t(region_->workers());
+    if (inputs_.size() < workers) inputs_.resize(workers);
+    if (scratch_.size() < workers) scratch_.resize(workers);
+}
+
+void SoftStepSolver::solve_in_region(RigidSystem& sys, Real h) {
     const RigidSettings& set = sys.settings();
     const int n_sub = set.effective_substeps();
     const Real h_sub = h / Real(n_sub), inv_h_sub = Real(n_sub) / h;
@@ -430,16 +511,24 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
 void SoftStepSolver::finish_step(RigidSystem& sys, Real) {
     if (!pending_) return;
     pending_ = false;
+    sys.region().run(sys.task_system(), [&] {
+        begin_region(sys);
+        finish_in_region(sys);
+    });
+    region_ = nullptr;
+}
+
+void SoftStepSolver::finish_in_region(RigidSystem& sys) {
     RigidSystem::State& st = sys.state();
     bodies_from_state(st);  // coupling layers may have changed them
     integrate_and_relax(sys);
     restitution(sys.settings().restitution_threshold);
-    for (std::size_t s = 0; s < st.v.size(); ++s) {
-        if (st.inv_mass[s] == 0) continue;
+    for_each_body(st.v.size(), [&](std::size_t s) {
+        if (st.inv_mass[s] == 0) return;
         const WideBody& b = bodies_[s];
         st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
         st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
-    }
+    });
     store_impulses(sys);
 }
 

@@ -22,6 +22,7 @@
 #include "soft/collider.hpp"
 #include "soft/particle_collision.hpp"
 #include "engine/core/step_fault.hpp"
+#include "engine/core/task_system.hpp"
 #include "soft/soft_body.hpp"
 
 namespace sinew {
@@ -41,6 +42,11 @@ public:
     SoftSystem& operator=(const SoftSystem&) = delete;
 
     const char* name() const override { return "soft"; }
+    /// The threads a step may use (engine/core/task_system.hpp); null or serial: one. The world sets it.
+    void set_task_system(const TaskSystem* tasks) { tasks_ = tasks; }
+    const TaskSystem* task_system() const { return tasks_; }
+    /// The region the system's parallel stages run in (one at a time).
+    ParallelRegion& region() { return region_; }
     void run_stage(Stage stage, const StepContext& ctx) override;
 
     const SoftSettings& settings() const { return settings_; }
@@ -144,6 +150,8 @@ private:
     std::vector<StepFault> faults_;
     std::vector<std::uint8_t> faulted_;  ///< by slot: put back this step (contain_non_finite), sits out its sub-steps
     std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
+    const TaskSystem* tasks_ = nullptr;
+    ParallelRegion region_;
 };
 
 }  // namespace sinew

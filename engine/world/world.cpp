@@ -25,6 +25,7 @@ World::World(const WorldSettings& settings) : settings_(settings) {
     soft_ = std::make_unique<SoftSystem>(soft);
     pipeline_.add_system(soft_.get());
     coupling_ = std::make_unique<CouplingLayer>(pipeline_, *rigid_, *soft_);
+    set_threads(settings.workers, settings.tasks);
 }
 
 World::~World() = default;
@@ -32,6 +33,32 @@ World::~World() = default;
 void World::set_time_step(Real h) {
     check_time_step(h);
     settings_.time_step = h;
+}
+
+void World::set_threads(int workers, const TaskSystem& tasks) {
+    if (in_step_) throw std::invalid_argument("set_threads: not during a step");
+    const bool host = tasks.enqueue != nullptr || tasks.finish != nullptr;
+    if (host && (tasks.enqueue == nullptr || tasks.finish == nullptr))
+        throw std::invalid_argument("set_threads: a task system needs both enqueue and finish");
+    const int count = host ? tasks.worker_count : workers;
+    if (count < 1 || count > kMaxWorkers)
+        throw std::invalid_argument(std::string(host ? "tasks.worker_count" : "workers") + " must be in [1, " +
+                                    std::to_string(kMaxWorkers) + "], got " + std::to_string(count));
+    if (host) {
+        pool_.reset();
+        tasks_ = tasks;
+    } else if (workers == 1) {
+        pool_.reset();
+        tasks_ = TaskSystem{};
+    } else if (!pool_ || pool_->worker_count() != workers) {
+        pool_.reset();
+        pool_ = std::make_unique<ThreadPool>(workers);
+        tasks_ = pool_->task_system();
+    }
+    settings_.workers = count;
+    settings_.tasks = host ? tasks : TaskSystem{};
+    rigid_->set_task_system(&tasks_);
+    soft_->set_task_system(&tasks_);
 }
 
 void World::set_gravity(const Vec3& g) {

@@ -6,6 +6,8 @@
 
 #include "coupling/coupling_layer.hpp"
 #include "engine/core/pipeline.hpp"
+#include "engine/core/task_system.hpp"
+#include "engine/core/thread_pool.hpp"
 #include "rigid/rigid_system.hpp"
 #include "soft/soft_system.hpp"
 
@@ -20,6 +22,13 @@ struct WorldSettings {
     int max_steps_per_frame = 8;     ///< accumulator cap, so a slow frame cannot spiral; 1 .. kMaxStepsPerFrame
     RigidSettings rigid;
     SoftSettings soft;               ///< soft.gravity is ignored: the world's gravity is rigid.gravity
+    /// Threads for one step, the calling thread included (engine/core/task_system.hpp). With 1 (the
+    /// default) the world is serial; with more and no `tasks`, the world starts a ThreadPool of
+    /// workers - 1 threads. Results are bit-identical for every worker count.
+    int workers = 1;
+    /// The host's job system. When its enqueue and finish are set, the world uses it (its worker_count
+    /// counts) and starts no thread; `workers` is then ignored.
+    TaskSystem tasks;
 };
 
 class World {
@@ -43,6 +52,12 @@ public:
     const WorldSettings& settings() const { return settings_; }
     /// Validates (throws std::invalid_argument naming the field) and applies.
     void set_time_step(Real h);
+    /// Threads for the next steps: `workers` of a pool of the world's own (1: serial), or the host's
+    /// task system when `tasks` has its callbacks (then `workers` is ignored). Throws
+    /// std::invalid_argument outside [1, kMaxWorkers] or during a step. Results do not depend on it.
+    void set_threads(int workers, const TaskSystem& tasks = {});
+    /// Workers a step uses (1: serial).
+    int workers() const { return tasks_.parallel() ? tasks_.worker_count : 1; }
     /// The world's gravity (m/s^2) for rigid and soft bodies alike, from the next step; wakes every body.
     void set_gravity(const Vec3& g);
 
@@ -74,6 +89,8 @@ private:
     double time_ = 0;
     bool in_step_ = false;
     std::vector<StepFault> faults_;
+    std::unique_ptr<ThreadPool> pool_;  // the world's own threads, when the host brings none
+    TaskSystem tasks_;                  // what the systems use: the host's, the pool's, or serial
 };
 
 }  // namespace sinew

@@ -1,0 +1,112 @@
+// ParallelRegion: stages published by the calling thread, blocks claimed by helpers (task_system.hpp).
+#include "engine/core/task_system.hpp"
+
+#include <algorithm>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
+
+namespace sinew {
+
+namespace {
+
+constexpr int kBlockBits = 20;
+constexpr std::uint64_t kBlockMask = (std::uint64_t(1) << kBlockBits) - 1;
+constexpr std::uint32_t kSeqMask = (1u << 24) - 1;
+
+std::uint32_t seq_of(std::uint64_t c) { return std::uint32_t(c >> (2 * kBlockBits)); }
+int blocks_of(std::uint64_t c) { return int((c >> kBlockBits) & kBlockMask); }
+int next_of(std::uint64_t c) { return int(c & kBlockMask); }
+
+/// One wait in a spin loop: a pause instruction for a while, then giving the core away, so helpers
+/// spinning on more workers than cores (or under a sanitizer) do not starve the thread they wait for.
+struct Backoff {
+    int spins = 0;
+    void wait() {
+        if (spins < 1000) {
+            ++spins;
+#if defined(__x86_64__) || defined(__i386__)
+            _mm_pause();
+#endif
+        } else {
+            std::this_thread::yield();
+        }
+    }
+};
+
+}  // namespace
+
+void ParallelRegion::open(const TaskSystem* tasks) {
+    tasks_ = tasks;
+    workers_ = (tasks && tasks->parallel()) ? std::min(tasks->worker_count, kMaxWorkers) : 1;
+    if (workers_ <= 1) return;
+    owner_ = std::this_thread::get_id();
+    exit_.store(false, std::memory_order_relaxed);
+    // The current stage, exhausted: a helper that starts now waits for the first real one.
+    claim_.store(std::uint64_t(seq_) << (2 * kBlockBits), std::memory_order_release);
+    for (int k = 1; k < workers_; ++k) {
+        helpers_[k] = Helper{this, k, nullptr};
+        helpers_[k].handle = tasks->enqueue(&ParallelRegion::helper_entry, 1, 1, &helpers_[k], tasks->user_context);
+    }
+}
+
+void ParallelRegion::close() {
+    if (workers_ <= 1) return;
+    exit_.store(true, std::memory_order_release);
+    for (int k = 1; k < workers_; ++k)
+        if (helpers_[k].handle) tasks_->finish(helpers_[k].handle, tasks_->user_context);
+    workers_ = 1;
+}
+
+void ParallelRegion::helper_entry(int, int, int, void* ctx) {
+    const Helper& h = *static_cast<const Helper*>(ctx);
+    ParallelRegion& r = *h.region;
+    // Run inline inside enqueue (or by finish on the calling thread): the calling thread does the work.
+    if (std::this_thread::get_id() == r.owner_) return;
+    Backoff backoff;
+    while (!r.exit_.load(std::memory_order_acquire)) {
+        const std::uint64_t c = r.claim_.load(std::memory_order_acquire);
+        if (next_of(c) < blocks_of(c)) {
+            r.work_on(seq_of(c), h.worker);
+            backoff = Backoff{};
+        } else {
+            backoff.wait();
+        }
+    }
+}
+
+void ParallelRegion::work_on(std::uint32_t seq, int worker) {
+    std::uint64_t c = claim_.load(std::memory_order_acquire);
+    for (;;) {
+        if (seq_of(c) != seq || next_of(c) >= blocks_of(c)) return;
+        if (!claim_.compare_exchange_weak(c, c + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
+        // The descriptor is the claimed stage's: the calling thread rewrites it only after this block
+        // is counted done.
+        const int begin = next_of(c) * block_, end = std::min(count_, begin + block_);
+        thunk_(ctx_, begin, end, worker);
+        done_.fetch_add(1, std::memory_order_release);
+        c = claim_.load(std::memory_order_acquire);
+    }
+}
+
+void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
+    // A few blocks per worker balance uneven items without many claims.
+    const int most = std::min<int>(4 * workers_, int(kBlockMask));
+    int blocks = std::min((count + std::max(min_block, 1) - 1) / std::max(min_block, 1), most);
+    blocks = std::max(blocks, 1);
+    block_ = (count + blocks - 1) / blocks;
+    blocks = (count + block_ - 1) / block_;
+    count_ = count;
+    thunk_ = thunk;
+    ctx_ = ctx;
+    done_.store(0, std::memory_order_relaxed);
+    seq_ = (seq_ + 1) & kSeqMask;
+    claim_.store((std::uint64_t(seq_) << (2 * kBlockBits)) | (std::uint64_t(blocks) << kBlockBits),
+                 std::memory_order_release);
+    work_on(seq_, 0);
+    Backoff backoff;
+    while (done_.load(std::memory_order_acquire) < blocks) backoff.wait();
+}
+
+}  // namespace sinew

@@ -1,0 +1,116 @@
+// Threads come from the host: a game engine owns its workers and lends them to physics (Box2D v3's
+// enqueueTask/finishTask callbacks, Jolt's JobSystem). Sinew asks for them through TaskSystem and
+// never creates a thread behind the host's back; ThreadPool (engine/core/thread_pool.hpp) is the small
+// default a world uses when the host brings none.
+//
+// Work is split by ParallelRegion, in Box2D v3's solver-stage shape: the calling thread runs the step
+// and publishes stages (a loop over items cut into blocks); up to worker_count - 1 helper tasks join in
+// and claim blocks of the current stage with one atomic each. Helpers spin between the stages of one
+// region, so a region of a hundred short stages (the soft step's colours times sub-steps) costs one
+// enqueue per helper, not one per stage. Nothing ever waits for a helper to start: the calling thread can
+// run every block itself, so a host that runs tasks late, one at a time, or inline inside enqueue is
+// still correct, only slower.
+//
+// Determinism: a stage's result must not depend on which worker runs which block. The stages written
+// for it make each item write only its own outputs (a colour's contact batches share no moving body;
+// a pair's manifolds go to the pair's own slot), and reductions run afterwards in item order.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <thread>
+#include <type_traits>
+
+namespace sinew {
+
+/// Runs items [begin, end) of a task on the worker with index `worker` (0 <= worker < worker_count).
+using TaskFn = void (*)(int begin, int end, int worker, void* task_context);
+
+/// The host's job system. `enqueue` runs `task` over items [0, item_count), in ranges of at least
+/// `min_range` items, on its workers, and returns a handle that `finish` waits on; it may instead run
+/// the task inline before returning and return null (then `finish` is not called). Sinew enqueues only
+/// tasks of one item (one per helper of a region) and runs its own share on the calling thread.
+struct TaskSystem {
+    /// Threads that may work on one step at the same time, the calling thread included (1 = serial).
+    int worker_count = 1;
+    void* (*enqueue)(TaskFn task, int item_count, int min_range, void* task_context, void* user_context) = nullptr;
+    void (*finish)(void* user_task, void* user_context) = nullptr;
+    void* user_context = nullptr;
+
+    bool parallel() const { return worker_count > 1 && enqueue != nullptr && finish != nullptr; }
+};
+
+/// The most workers a region uses (a bound for per-worker scratch arrays).
+constexpr int kMaxWorkers = 64;
+
+/// A parallel region: see the file comment. Not reentrant: one run() at a time per region object.
+class ParallelRegion {
+public:
+    ParallelRegion() = default;
+    ParallelRegion(const ParallelRegion&) = delete;
+    ParallelRegion& operator=(const ParallelRegion&) = delete;
+
+    /// Runs body() on the calling thread with helpers from `tasks` (null or serial: no helpers) that
+    /// join the stages body() publishes through for_each().
+    template <class Body>
+    void run(const TaskSystem* tasks, Body&& body) {
+        open(tasks);
+        struct Closer {
+            ParallelRegion* r;
+            ~Closer() { r->close(); }
+        } closer{this};
+        body();
+    }
+
+    /// Workers of the region in progress (1 outside run() or without helpers): scratch arrays indexed by
+    /// a stage's `worker` need this many entries.
+    int workers() const { return workers_; }
+
+    /// A stage: fn(begin, end, worker) over items [0, count) in blocks of at least `min_block` items,
+    /// on this thread and the helpers; returns when every block is done. Outside run() or with one
+    /// worker it is fn(0, count, 0). fn must not throw.
+    template <class Fn>
+    void for_each(int count, int min_block, Fn&& fn) {
+        if (count <= 0) return;
+        if (workers_ <= 1 || count <= min_block) {
+            fn(0, count, 0);
+            return;
+        }
+        using F = std::remove_reference_t<Fn>;
+        publish(count, min_block, [](void* ctx, int b, int e, int w) { (*static_cast<F*>(ctx))(b, e, w); },
+                const_cast<void*>(static_cast<const void*>(&fn)));
+    }
+
+private:
+    using Thunk = void (*)(void* ctx, int begin, int end, int worker);
+    void open(const TaskSystem* tasks);
+    void close();
+    void publish(int count, int min_block, Thunk thunk, void* ctx);
+    /// Claims and runs blocks of stage `seq` until none is left; false if the stage has moved on.
+    void work_on(std::uint32_t seq, int worker);
+    static void helper_entry(int begin, int end, int worker, void* ctx);
+
+    struct Helper {
+        ParallelRegion* region;
+        int worker;
+        void* handle;
+    };
+
+    // The claim word: [stage sequence : 24][blocks : 20][next block : 20]. Packing the stage and its block
+    // count with the cursor lets a helper that slept through a stage change never claim a block of the
+    // wrong stage, nor read the descriptor of a stage it did not claim in.
+    std::atomic<std::uint64_t> claim_{0};
+    std::atomic<int> done_{0};
+    std::atomic<bool> exit_{false};
+    Thunk thunk_ = nullptr;
+    void* ctx_ = nullptr;
+    int count_ = 0;
+    int block_ = 1;
+    std::uint32_t seq_ = 0;
+    int workers_ = 1;
+    const TaskSystem* tasks_ = nullptr;
+    std::thread::id owner_;
+    Helper helpers_[kMaxWorkers];
+};
+
+}  // namespace sinew
