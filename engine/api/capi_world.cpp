@@ -49,6 +49,10 @@ sinew_world_def sinew_world_def_default(void) {
     d.solver = SINEW_SOLVER_SOFT_STEP;
     d.velocity_iterations = ws.rigid.velocity_iterations;
     d.enable_sleep = ws.rigid.sleeping ? 1 : 0;
+    d.worker_count = ws.workers;
+    d.enqueue_task = nullptr;
+    d.finish_task = nullptr;
+    d.user_task_context = nullptr;
     return d;
 }
 
@@ -68,7 +72,22 @@ sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out)
                         std::string(fn) + ": def->solver = " + std::to_string(solver) + " is not a sinew_solver");
         if (def->enable_sleep != 0 && def->enable_sleep != 1)
             return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->enable_sleep must be 0 or 1");
+        if ((def->enqueue_task == nullptr) != (def->finish_task == nullptr))
+            return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                        std::string(fn) + ": def->enqueue_task and def->finish_task must be set together");
+        if (def->worker_count < 1 || def->worker_count > kMaxWorkers)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->worker_count = " +
+                                                          std::to_string(def->worker_count) + " must be in [1, " +
+                                                          std::to_string(kMaxWorkers) + "]");
         WorldSettings ws;
+        ws.workers = def->worker_count;
+        if (def->enqueue_task) {
+            // sinew_task_fn and TaskFn are the same signature (begin, end, worker, context).
+            ws.tasks.worker_count = def->worker_count;
+            ws.tasks.enqueue = reinterpret_cast<void* (*)(TaskFn, int, int, void*, void*)>(def->enqueue_task);
+            ws.tasks.finish = def->finish_task;
+            ws.tasks.user_context = def->user_task_context;
+        }
         ws.time_step = Real(def->time_step);
         ws.max_steps_per_frame = def->max_steps_per_frame;
         ws.rigid.gravity = to_vec(def->gravity);
@@ -92,6 +111,30 @@ sinew_status sinew_world_destroy(sinew_world_id id) {
         if (!w) return SINEW_ERROR_STALE_ID;
         if (sinew_status s = check_not_stepping(w, "sinew_world_destroy")) return s;
         unregister_world(id);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_set_workers(sinew_world_id id, int worker_count, sinew_enqueue_task_fn* enqueue_task,
+                                     sinew_finish_task_fn* finish_task, void* user_task_context) {
+    return guarded("sinew_world_set_workers", [&] {
+        const char* fn = "sinew_world_set_workers";
+        World* w = find_world(id, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        if ((enqueue_task == nullptr) != (finish_task == nullptr))
+            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": enqueue_task and finish_task must be set together");
+        if (worker_count < 1 || worker_count > kMaxWorkers)
+            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": worker_count = " + std::to_string(worker_count) +
+                                                          " must be in [1, " + std::to_string(kMaxWorkers) + "]");
+        TaskSystem tasks;
+        if (enqueue_task) {
+            tasks.worker_count = worker_count;
+            tasks.enqueue = reinterpret_cast<void* (*)(TaskFn, int, int, void*, void*)>(enqueue_task);
+            tasks.finish = finish_task;
+            tasks.user_context = user_task_context;
+        }
+        w->set_threads(worker_count, tasks);
         return SINEW_OK;
     });
 }

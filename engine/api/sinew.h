@@ -27,7 +27,10 @@
  *   several worlds are used concurrently. A world keeps the allocator it was created with.
  * - While a world steps, calls that change it are rejected with SINEW_ERROR_IN_STEP (this can only happen
  *   from inside a callback: the log callback or the allocator hooks). Reading calls are allowed.
- * - Stepping is single-threaded inside the library today (the task-system hooks come later).
+ * - A step may use several threads (sinew_world_def.worker_count): your own job system's, through
+ *   enqueue_task/finish_task (then Sinew never creates a thread), or a small pool the world starts. The
+ *   calls above still come from one thread at a time; the step returns when all its work is done, and
+ *   the result is bit-identical for every worker count.
  */
 #ifndef SINEW_H
 #define SINEW_H
@@ -75,6 +78,18 @@ typedef enum sinew_solver {
     SINEW_SOLVER_NEWTON = 3         /* Guendelman 2003 Newtonian impulses */
 } sinew_solver;
 
+/* The host's job system (the shape of Box2D v3's task callbacks). Sinew calls enqueue_task with tasks
+   of one item, up to worker_count - 1 per parallel part of a step, and runs its own share on the calling
+   thread; it never waits for a task to start, so running a task late, on any worker, or inline inside
+   enqueue_task is correct. */
+typedef void sinew_task_fn(int begin, int end, int worker_index, void* task_context);
+/* Runs task over items [0, item_count) in ranges of at least min_range, with worker_index below the
+   world's worker_count; returns a handle for finish_task, or NULL if it ran the task before returning. */
+typedef void* sinew_enqueue_task_fn(sinew_task_fn* task, int item_count, int min_range, void* task_context,
+                                    void* user_context);
+/* Waits until the task of handle user_task (never NULL) has run. */
+typedef void sinew_finish_task_fn(void* user_task, void* user_context);
+
 typedef struct sinew_world_def {
     sinew_vec3 gravity;      /* m/s^2, default (0, -9.81, 0) */
     float time_step;         /* fixed internal step h, s, default 1/60 */
@@ -82,6 +97,11 @@ typedef struct sinew_world_def {
     sinew_solver solver;     /* default SINEW_SOLVER_SOFT_STEP */
     int velocity_iterations; /* passes over the constraints per step, default 10 */
     int enable_sleep;        /* 0 or 1, default 1 */
+    int worker_count;        /* threads one step may use, the calling one included, in [1, 64]; default 1.
+                                Without enqueue_task the world starts worker_count - 1 threads of its own */
+    sinew_enqueue_task_fn* enqueue_task; /* your job system, default NULL; with finish_task: no thread is */
+    sinew_finish_task_fn* finish_task;   /* created by Sinew, and worker_count is your workers' count */
+    void* user_task_context;             /* passed to enqueue_task and finish_task */
 } sinew_world_def;
 
 typedef enum sinew_body_type { SINEW_BODY_STATIC = 0, SINEW_BODY_KINEMATIC = 1, SINEW_BODY_DYNAMIC = 2 } sinew_body_type;
@@ -116,6 +136,10 @@ SINEW_API const char* sinew_last_error(void);
 
 SINEW_API sinew_world_def sinew_world_def_default(void);
 SINEW_API sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out);
+/** The threads the next steps use, as in sinew_world_def (for a world made from a scene file, say):
+ *  worker_count in [1, 64]; enqueue_task and finish_task both NULL (the world's own threads) or both set. */
+SINEW_API sinew_status sinew_world_set_workers(sinew_world_id world, int worker_count, sinew_enqueue_task_fn* enqueue_task,
+                                               sinew_finish_task_fn* finish_task, void* user_task_context);
 SINEW_API sinew_status sinew_world_destroy(sinew_world_id world);
 /** Game-loop stepping: adds frame_dt (s, >= 0) to the accumulator and runs whole fixed steps.
  *  steps_taken and alpha (interpolation fraction in [0, 1)) may be NULL and are set on
