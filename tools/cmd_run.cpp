@@ -26,6 +26,7 @@ struct RunOptions {
     std::string record;
     std::string save;
     std::optional<CouplingStrategy> coupling;
+    int workers = 1;
 };
 
 RunOptions parse_options(const std::vector<std::string>& args) {
@@ -36,6 +37,8 @@ RunOptions parse_options(const std::vector<std::string>& args) {
             o.steps = parse_int("--steps", option_value(args, i, "--steps"), 0, 100000000);
         } else if (is_option(a, "--dt")) {
             o.dt = parse_positive("--dt", option_value(args, i, "--dt"));
+        } else if (is_option(a, "--workers")) {
+            o.workers = int(parse_int("--workers", option_value(args, i, "--workers"), 1, kMaxWorkers));
         } else if (is_option(a, "--record")) {
             o.record = option_value(args, i, "--record");
             if (o.record.empty()) throw UsageError("--record needs a file name");
@@ -103,6 +106,7 @@ int run(const std::vector<std::string>& args) {
 
     std::vector<BodyId> ids;
     const std::unique_ptr<World> world = build_world(scene, &ids);
+    world->set_threads(opt.workers);
     // A body past its method's documented stability limit at this step is run, with a warning first.
     {
         const std::vector<SoftBodyId> soft_ids = world->soft().bodies();
@@ -153,6 +157,7 @@ int run(const std::vector<std::string>& args) {
     out["bodies"] = rigid.body_count();
     out["soft_bodies"] = soft.body_count();
     out["particles"] = soft.particle_count();
+    if (opt.workers > 1) out["workers"] = opt.workers;
     out["coupling"] = coupling_strategy_name(world->coupling().settings().strategy);
     if (!world->coupling().settings().pairs.empty()) out["coupling_pairs"] = world->coupling().settings().pairs.size();
     if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;
@@ -171,11 +176,12 @@ int run(const std::vector<std::string>& args) {
 
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
-    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--record FILE] [--save FILE]\n"
+    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--workers N] [--record FILE]\n"
+    "                [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
-    "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"coupling\" (the world's\n"
+    "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"workers\" (if more than one), \"coupling\" (the world's\n"
     "   strategy; \"coupling_pairs\": how many pairs override it; \"coupling_substeps\": soft steps per\n"
     "   step, if more than one), \"ms_per_step_median\" (wall\n"
     "   time), \"max_penetration\" (m, deepest rigid contact over the run), \"kinetic_energy\" (J, rigid and\n"
@@ -187,6 +193,8 @@ const Command run_command = {
     "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid, interleaved or\n"
     "                  one-solver, or embed-rigid (overrides the scene's \"coupling\" section, its pairs included;\n"
     "                  docs/coupling.md)\n"
+    "  --workers N     threads for each step, this one included (default 1; results are bit-identical\n"
+    "                  for every N)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md)\n"
     "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"

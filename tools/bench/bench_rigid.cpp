@@ -15,6 +15,7 @@
 #include "tools/bench/bench_cloth.hpp"
 #include "tools/bench/bench_coupling.hpp"
 #include "tools/bench/bench_fem.hpp"
+#include "tools/bench/bench_threads.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
 
@@ -46,7 +47,7 @@ const SinewVariant kVariants[] = {
 
 class SinewContender final : public RigidContender {
 public:
-    SinewContender(const SceneDesc& scene, const SinewVariant& v, int iterations) : simd_(v.simd) {
+    SinewContender(const SceneDesc& scene, const SinewVariant& v, int iterations, int workers) : simd_(v.simd) {
         SceneDesc s = scene;
         s.settings.rigid.solver = v.solver;
         s.settings.rigid.warm_starting = v.warm;
@@ -55,6 +56,7 @@ public:
         s.settings.rigid.newton_contact_iterations = iterations;
         std::vector<BodyId> ids;
         world_ = build_world(s, &ids);
+        world_->set_threads(workers);
         for (std::size_t i = 0; i < ids.size(); ++i)
             if (s.bodies[i].def.type == BodyType::Dynamic) dyn_.push_back(ids[i]);
         run.scene = scene.name;
@@ -212,9 +214,12 @@ int cmd_bench(const std::vector<std::string>& args) {
     if (!args.empty() && args[0] == "cloth") return cmd_bench_cloth(args);  // tools/bench/bench_cloth.cpp
     if (!args.empty() && args[0] == "fem") return cmd_bench_fem(args);  // tools/bench/bench_fem.cpp
     if (!args.empty() && args[0] == "coupling") return cmd_bench_coupling(args);  // tools/bench/bench_coupling.cpp
-    if (args.empty() || args[0] != "rigid") throw UsageError("which suite? 'rigid', 'cloth', 'fem' or 'coupling'");
+    if (!args.empty() && args[0] == "threads") return cmd_bench_threads(args);  // tools/bench/bench_threads.cpp
+    if (args.empty() || args[0] != "rigid")
+        throw UsageError("which suite? 'rigid', 'cloth', 'fem', 'coupling' or 'threads'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
-    int steps = -1, iterations = 10;
+    int steps = -1, iterations = 10, workers = 1;
+    bool clock_given = false;
     std::string chart, markdown, scene_dir = "demos/scenes";
     std::vector<std::string> only;  // engine or engine/variant names; empty = all
     BenchClock clock = BenchClock::ThreadCpu;
@@ -223,12 +228,15 @@ int cmd_bench(const std::vector<std::string>& args) {
         if (tool::is_option(a, "--scenes")) scenes = split_list(tool::option_value(args, i, "--scenes"));
         else if (tool::is_option(a, "--clock")) {
             const std::string c = tool::option_value(args, i, "--clock");
+            clock_given = true;
             if (c == "cpu") clock = BenchClock::ThreadCpu;
             else if (c == "wall") clock = BenchClock::Wall;
             else throw UsageError("--clock must be 'cpu' or 'wall', got '" + c + "'");
         }
         else if (tool::is_option(a, "--steps"))
             steps = int(tool::parse_int("--steps", tool::option_value(args, i, "--steps"), 1, 10000000));
+        else if (tool::is_option(a, "--workers"))
+            workers = int(tool::parse_int("--workers", tool::option_value(args, i, "--workers"), 1, kMaxWorkers));
         else if (tool::is_option(a, "--iterations"))
             iterations = int(tool::parse_int("--iterations", tool::option_value(args, i, "--iterations"), 1, 1000));
         else if (tool::is_option(a, "--chart")) chart = tool::option_value(args, i, "--chart");
@@ -238,6 +246,11 @@ int cmd_bench(const std::vector<std::string>& args) {
         else throw UsageError("unknown option '" + a + "'");
     }
     if (scenes.empty()) throw UsageError("--scenes is empty");
+    // The helpers' work is on other threads: the calling thread's CPU time would leave it out.
+    if (workers > 1 && clock == BenchClock::ThreadCpu) {
+        if (clock_given) throw UsageError("--workers above 1 needs --clock wall (the helpers run on other threads)");
+        clock = BenchClock::Wall;
+    }
     std::vector<RigidRun> runs;
     for (const std::string& name : scenes) {
         const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");  // SceneError: exit 1
@@ -251,7 +264,7 @@ int cmd_bench(const std::vector<std::string>& args) {
         std::vector<std::unique_ptr<RigidContender>> contenders;
         for (const SinewVariant& v : kVariants)
             if (wanted(v.engine, v.variant) && simd_kernel_available(v.simd))
-                contenders.push_back(std::make_unique<SinewContender>(scene, v, iterations));
+                contenders.push_back(std::make_unique<SinewContender>(scene, v, iterations, workers));
         if (wanted("bullet", "default")) contenders.push_back(make_bullet_contender(scene, iterations));
         std::cerr << "bench: " << name << ": " << contenders.size() << " engine settings, " << n
                   << " steps each, stepped in alternating chunks...\n";
@@ -317,7 +330,8 @@ namespace sinew::tool {
 const Command bench_command = {
     "bench", bench::cmd_bench, "benchmark Sinew's solvers against Bullet in the same run",
     "usage: sinew bench rigid [--scenes a,b,...] [--engines e,e/variant,...] [--steps N] [--iterations N]\n"
-    "                         [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"
+    "                         [--workers N] [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall]\n"
+    "                         [--scene-dir DIR]\n"
     "\n"
     "Runs each scene (default: pyramid-10/20/40, tower-10/20, many-pyramids from demos/scenes) under\n"
     "every Sinew solver setting and under Bullet 3.24, in this process. Progress goes to stderr; one JSON\n"
@@ -327,6 +341,8 @@ const Command bench_command = {
     "contact kernel: avx, sse2 or portable; variant soft-step-sse2 forces SSE2; none for other solvers).\n"
     "--chart draws time against drift (gnuplot); --markdown rewrites the bench-rigid section of a results\n"
     "file such as docs/RESULTS.md. --clock: per-step time as thread CPU time (default) or wall time.\n"
+    "--workers N: Sinew's worlds step on N threads (the calling one included; Bullet stays on one), timed\n"
+    "by wall clock.\n"
     "\n"
     "usage: sinew bench cloth [--scenes a,b,...] [--engines e,e/variant,...] [--steps N]\n"
     "                         [--chart FILE.png] [--markdown FILE.md] [--clock cpu|wall] [--scene-dir DIR]\n"
@@ -361,5 +377,12 @@ const Command bench_command = {
     "over the last second / its weight times a second), finite. --markdown rewrites bench-coupling.\n"
     "--figure-4 runs the scene figure-4 instead (seed 001's Figure 4: one-way and hybrid with 5 soft\n"
     "sub-steps at 60 Hz against two-way at 300 Hz and at 60 Hz, 2 simulated seconds or --steps at 60 Hz),\n"
-    "adding ms_per_second, and --markdown rewrites bench-coupling-figure-4.\n"};
+    "adding ms_per_second, and --markdown rewrites bench-coupling-figure-4.\n"
+    "\n"
+    "usage: sinew bench threads [--scenes a,b,...] [--workers 1,2,...] [--steps N] [--markdown FILE]\n"
+    "\n"
+    "Steps each scene (default: pyramid-40, many-pyramids, cloth-64, fem-block-20k; 300 steps) in one\n"
+    "world per worker count (default 1,2), in alternating chunks; one JSON line per run: scene, workers,\n"
+    "bodies, particles, steps, ms_per_step_median (wall), speedup (over the first worker count), identical\n"
+    "(end state bit-identical to the first's), finite. --markdown rewrites bench-threads.\n"};
 }  // namespace sinew::tool
