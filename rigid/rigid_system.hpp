@@ -235,8 +235,12 @@ private:
     void prepare_mass_state();
     void detect_collisions(Real h);
     bool can_reuse(const Transform& cached, const Transform& now) const;
+    /// Pass 3 of detect_collisions for pair i: its manifolds, cached or fresh, appended to the worker's
+    /// list (pair_work_[i] records where).
+    void detect_pair(std::size_t i, Real h, Real margin, int worker);
     void add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Transform& xa, const Transform& xb,
-                             const Transform& relative, std::size_t prev_i, std::size_t prev_end);
+                             const Transform& relative, std::size_t prev_i, std::size_t prev_end, ManifoldList& fresh,
+                             std::vector<ContactManifold>& out) const;
     /// Where shapes are placed for collision detection: current poses, or candidate poses x + h v.
     Transform detection_transform(std::uint32_t slot, Real h) const;
     void solve_velocities(Real h);
@@ -295,7 +299,20 @@ private:
     std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
-    ManifoldList scratch_;
+    /// Per candidate pair of this step's detection: its cached manifolds in prev_contacts_, whether it
+    /// sleeps, the slot it wakes (or kNoSlot), and where its manifolds went in detect_out_.
+    struct PairWork {
+        std::uint32_t prev_begin, prev_end;
+        std::uint32_t wakes;
+        std::uint32_t first, count;
+        std::uint32_t offset;  ///< where its manifolds go in contacts_
+        int worker;
+        bool asleep;
+    };
+    static constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;
+    std::vector<PairWork> pair_work_;
+    std::vector<std::vector<ContactManifold>> detect_out_;  ///< per worker
+    std::vector<ManifoldList> detect_scratch_;              ///< per worker: the narrow phase's output
     std::unique_ptr<RigidSolver> solver_;
     std::unique_ptr<JointSet> joints_;
     std::vector<ConstraintRows*> row_sources_;  ///< joints_ first, then add_rows() order

@@ -44,7 +44,9 @@ void ParallelRegion::open(const TaskSystem* tasks) {
     owner_ = std::this_thread::get_id();
     exit_.store(false, std::memory_order_relaxed);
     // The current stage, exhausted: a helper that starts now waits for the first real one.
-    claim_.store(std::uint64_t(seq_) << (2 * kBlockBits), std::memory_order_release);
+    for (int r = 0; r < workers_; ++r)
+        ranges_[r].claim.store(std::uint64_t(seq_) << (2 * kBlockBits), std::memory_order_relaxed);
+    stage_.store(seq_, std::memory_order_release);
     for (int k = 1; k < workers_; ++k) {
         helpers_[k] = Helper{this, k, nullptr};
         helpers_[k].handle = tasks->enqueue(&ParallelRegion::helper_entry, 1, 1, &helpers_[k], tasks->user_context);
@@ -64,11 +66,13 @@ void ParallelRegion::helper_entry(int, int, int, void* ctx) {
     ParallelRegion& r = *h.region;
     // Run inline inside enqueue (or by finish on the calling thread): the calling thread does the work.
     if (std::this_thread::get_id() == r.owner_) return;
+    std::uint32_t last = kSeqMask + 1;  // no stage: a helper arriving mid-stage joins it
     Backoff backoff;
     while (!r.exit_.load(std::memory_order_acquire)) {
-        const std::uint64_t c = r.claim_.load(std::memory_order_acquire);
-        if (next_of(c) < blocks_of(c)) {
-            r.work_on(seq_of(c), h.worker);
+        const std::uint32_t seq = r.stage_.load(std::memory_order_acquire);
+        if (seq != last) {
+            r.work_on(seq, h.worker);
+            last = seq;
             backoff = Backoff{};
         } else {
             backoff.wait();
@@ -76,18 +80,22 @@ void ParallelRegion::helper_entry(int, int, int, void* ctx) {
     }
 }
 
-void ParallelRegion::work_on(std::uint32_t seq, int worker) {
-    std::uint64_t c = claim_.load(std::memory_order_acquire);
+void ParallelRegion::drain(Range& r, std::uint32_t seq, int worker) {
+    std::uint64_t c = r.claim.load(std::memory_order_acquire);
     for (;;) {
         if (seq_of(c) != seq || next_of(c) >= blocks_of(c)) return;
-        if (!claim_.compare_exchange_weak(c, c + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
-        // The descriptor is the claimed stage's: the calling thread rewrites it only after this block
-        // is counted done.
-        const int begin = next_of(c) * block_, end = std::min(count_, begin + block_);
+        if (!r.claim.compare_exchange_weak(c, c + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
+        // The descriptor is the claimed stage's: the calling thread rewrites it only after this block is
+        // counted done.
+        const int begin = (r.first + next_of(c)) * block_, end = std::min(count_, begin + block_);
         thunk_(ctx_, begin, end, worker);
         done_.fetch_add(1, std::memory_order_release);
-        c = claim_.load(std::memory_order_acquire);
+        c = r.claim.load(std::memory_order_acquire);
     }
+}
+
+void ParallelRegion::work_on(std::uint32_t seq, int worker) {
+    for (int k = 0; k < workers_; ++k) drain(ranges_[(worker + k) % workers_], seq, worker);
 }
 
 void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
@@ -102,8 +110,13 @@ void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
     ctx_ = ctx;
     done_.store(0, std::memory_order_relaxed);
     seq_ = (seq_ + 1) & kSeqMask;
-    claim_.store((std::uint64_t(seq_) << (2 * kBlockBits)) | (std::uint64_t(blocks) << kBlockBits),
-                 std::memory_order_release);
+    for (int r = 0; r < workers_; ++r) {
+        const int first = int(std::int64_t(blocks) * r / workers_), next = int(std::int64_t(blocks) * (r + 1) / workers_);
+        ranges_[r].first = first;
+        ranges_[r].claim.store((std::uint64_t(seq_) << (2 * kBlockBits)) | (std::uint64_t(next - first) << kBlockBits),
+                               std::memory_order_release);
+    }
+    stage_.store(seq_, std::memory_order_release);
     work_on(seq_, 0);
     Backoff backoff;
     while (done_.load(std::memory_order_acquire) < blocks) backoff.wait();

@@ -83,11 +83,23 @@ public:
 
 private:
     using Thunk = void (*)(void* ctx, int begin, int end, int worker);
+    // A stage's blocks are cut into one contiguous range per worker. Each worker starts on its own range
+    // and then helps with the others' (Box2D v3 does the same): the same worker tends to get the same
+    // contact batches, and so the same bodies, stage after stage, and they stay in its core's cache.
+    // A range's claim word: [stage sequence : 24][blocks : 20][next block : 20]. Packing the stage and the
+    // block count with the cursor lets a helper that slept through a stage change never claim a block of
+    // the wrong stage, nor read the descriptor of a stage it did not claim in.
+    struct alignas(64) Range {
+        std::atomic<std::uint64_t> claim{0};
+        int first = 0;  // the range's first block
+    };
     void open(const TaskSystem* tasks);
     void close();
     void publish(int count, int min_block, Thunk thunk, void* ctx);
-    /// Claims and runs blocks of stage `seq` until none is left; false if the stage has moved on.
+    /// Claims and runs blocks of stage `seq`, its own range first, until none is left or the stage moved on.
     void work_on(std::uint32_t seq, int worker);
+    /// Claims and runs blocks of range r while it has some in stage `seq`.
+    void drain(Range& r, std::uint32_t seq, int worker);
     static void helper_entry(int begin, int end, int worker, void* ctx);
 
     struct Helper {
@@ -96,10 +108,8 @@ private:
         void* handle;
     };
 
-    // The claim word: [stage sequence : 24][blocks : 20][next block : 20]. Packing the stage and its block
-    // count with the cursor lets a helper that slept through a stage change never claim a block of the
-    // wrong stage, nor read the descriptor of a stage it did not claim in.
-    std::atomic<std::uint64_t> claim_{0};
+    Range ranges_[kMaxWorkers];
+    std::atomic<std::uint32_t> stage_{0};  // the sequence of the stage published last
     std::atomic<int> done_{0};
     std::atomic<bool> exit_{false};
     Thunk thunk_ = nullptr;
