@@ -10,6 +10,8 @@
 namespace sinew {
 
 namespace {
+/// Candidate pairs from which detection runs on the workers (below it, on the calling thread alone).
+constexpr std::size_t kParallelPairs = 256;
 std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; }
 bool manifold_less(const ContactManifold& x, const ContactManifold& y) {
     std::uint64_t kx = pair_key(x.body_a, x.body_b), ky = pair_key(y.body_a, y.body_b);
@@ -81,7 +83,8 @@ void RigidSystem::detect_collisions(Real h) {
         // tested pair: 50,176 boxes asleep on the ground spent 0.7 ms a step placing every body.
         if (!w.asleep) detect_placed_[a] = detect_placed_[b] = 1;
     }
-    region_.run(tasks_, [&] {
+    // Helpers only for enough pairs: waking them costs more than a small scene's whole detection.
+    region_.run(np >= kParallelPairs ? tasks_ : nullptr, [&] {
         const std::size_t workers = std::size_t(region_.workers());
         if (detect_out_.size() < workers) detect_out_.resize(workers);
         if (detect_scratch_.size() < workers) detect_scratch_.resize(workers);

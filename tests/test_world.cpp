@@ -2,6 +2,7 @@
 // against the closed form of semi-implicit Euler.
 #include <catch2/catch.hpp>
 
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -242,16 +243,28 @@ TEST_CASE("the determinism scene ends bit-identical on 1, 2, 3, 4 and 8 workers"
     const bool sleeping = GENERATE(false, true);
     const CouplingStrategy strategy = GENERATE(CouplingStrategy::TwoWay, CouplingStrategy::OneWay, CouplingStrategy::OneSolver);
     INFO("sleeping " << sleeping << ", " << coupling_strategy_name(strategy));
-    // 10 rows: 55 boxes, enough contact batches per colour that every parallel stage is split.
-    SceneDesc desc = parse_scene_string(determinism_scene(sleeping, 10), "determinism.json");
+    // 20 rows: 210 boxes, enough pairs and manifolds that detection and the solve go to the workers
+    // (checked below through a task system that counts its tasks) and every colour is split.
+    SceneDesc desc = parse_scene_string(determinism_scene(sleeping, 20), "determinism.json");
     desc.coupling.settings.strategy = strategy;
     std::uint64_t serial = 0;
     for (int workers : {1, 2, 3, 4, 8}) {
         INFO(workers << " workers");
+        // The world's own pool for 2, a host's (a pool behind callbacks that count the tasks) for others.
+        static std::atomic<long> tasks{0};
+        ThreadPool host(workers);
+        TaskSystem counting = host.task_system();
+        counting.enqueue = [](TaskFn fn, int count, int min_range, void* ctx, void* pool) -> void* {
+            ++tasks;
+            return static_cast<ThreadPool*>(pool)->task_system().enqueue(fn, count, min_range, ctx, pool);
+        };
+        tasks = 0;
         const std::unique_ptr<World> world = build_world(desc);
-        world->set_threads(workers);
+        if (workers == 2) world->set_threads(workers);
+        else if (workers > 1) world->set_threads(1, counting);
         REQUIRE(world->workers() == workers);
         for (int s = 0; s < 90; ++s) world->step();
+        if (workers > 2) CHECK(tasks >= 90 * (workers - 1));  // at least one region a step had helpers
         REQUIRE(world->faults().empty());
         REQUIRE(world->rigid().all_finite());
         if (workers == 1) serial = state_hash(*world);
