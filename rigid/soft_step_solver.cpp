@@ -156,10 +156,10 @@ public:
     void finish_step(RigidSystem& sys, Real h) override;
 
 private:
-    /// Per-worker scratch sized for the region just opened (solve_velocities and finish_step each run
-    /// in a parallel region of the system's task system).
-    void begin_region(RigidSystem& sys);
-    const TaskSystem* tasks_for(RigidSystem& sys) const;
+    /// Runs f() in a parallel region of the system's task system (solve_velocities and finish_step each
+    /// run in one), with the per-worker scratch sized for it.
+    template <class F>
+    void in_region(RigidSystem& sys, F&& f);
     void solve_in_region(RigidSystem& sys, Real h);
     void finish_in_region(RigidSystem& sys);
     void colour(RigidSystem& sys);
@@ -208,7 +208,12 @@ private:
     /// Per worker of the region in progress: staged batch inputs and the row immovable bodies' lanes
     /// write to (kernels' scatter).
     std::vector<BatchInputs> inputs_;
-    std::vector<WideBody> scratch_;
+    /// A worker's row on a cache line of its own (WideBody is 16-byte aligned): the workers write theirs
+    /// at every batch.
+    struct alignas(64) ScratchRow {
+        WideBody body;
+    };
+    std::vector<ScratchRow> scratch_;
     ParallelRegion* region_ = nullptr;
     std::int32_t pad_ = 0;  // index of the padding body
     /// Slots that move in this step's solve (inverse mass, or a velocity: kinematic), in slot order; the
@@ -370,11 +375,11 @@ void SoftStepSolver::per_colour(F&& f) {
     for (int col = 0; col < ConstraintColouring::kColours; ++col) {
         const int first = int(colour_start_[col]), count = int(colour_start_[col + 1]) - first;
         region_->for_each(count, kBatchesPerBlock, [&](int begin, int end, int worker) {
-            f(contacts_.data() + first + begin, std::size_t(end - begin), &scratch_[worker]);
+            f(contacts_.data() + first + begin, std::size_t(end - begin), &scratch_[worker].body);
         });
     }
     const std::uint32_t first = colour_start_[ConstraintColouring::kOverflow];
-    if (contacts_.size() > first) f(contacts_.data() + first, contacts_.size() - first, &scratch_[0]);
+    if (contacts_.size() > first) f(contacts_.data() + first, contacts_.size() - first, &scratch_[0].body);
 }
 
 void SoftStepSolver::store_impulses(RigidSystem& sys) const {
@@ -428,25 +433,26 @@ void SoftStepSolver::bodies_from_state(const RigidSystem::State& st) {
     });
 }
 
-const TaskSystem* SoftStepSolver::tasks_for(RigidSystem& sys) const {
+void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
+    in_region(sys, [&] { solve_in_region(sys, h); });
+}
+
+template <class F>
+void SoftStepSolver::in_region(RigidSystem& sys, F&& f) {
+    struct Reset {
+        ParallelRegion*& region;
+        ~Reset() { region = nullptr; }
+    } reset{region_};
     // Helpers only for enough work: waking them costs more than a small scene's whole solve (a cloth
     // over a static ground ran 0.83x as fast on two workers as on one).
-    return sys.contacts().size() >= kParallelManifolds ? sys.task_system() : nullptr;
-}
-
-void SoftStepSolver::solve_velocities(RigidSystem& sys, Real h) {
-    sys.region().run(tasks_for(sys), [&] {
-        begin_region(sys);
-        solve_in_region(sys, h);
+    const TaskSystem* tasks = sys.contacts().size() >= kParallelManifolds ? sys.task_system() : nullptr;
+    sys.region().run(tasks, [&] {
+        region_ = &sys.region();
+        const std::size_t workers = std::size_t(region_->workers());
+        if (inputs_.size() < workers) inputs_.resize(workers);
+        if (scratch_.size() < workers) scratch_.resize(workers);
+        f();
     });
-    region_ = nullptr;
-}
-
-void SoftStepSolver::begin_region(RigidSystem& sys) {
-    region_ = &sys.region();
-    const std::size_t workers = std::size_t(region_->workers());
-    if (inputs_.size() < workers) inputs_.resize(workers);
-    if (scratch_.size() < workers) scratch_.resize(workers);
 }
 
 void SoftStepSolver::solve_in_region(RigidSystem& sys, Real h) {
@@ -520,11 +526,7 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
 void SoftStepSolver::finish_step(RigidSystem& sys, Real) {
     if (!pending_) return;
     pending_ = false;
-    sys.region().run(tasks_for(sys), [&] {
-        begin_region(sys);
-        finish_in_region(sys);
-    });
-    region_ = nullptr;
+    in_region(sys, [&] { finish_in_region(sys); });
 }
 
 void SoftStepSolver::finish_in_region(RigidSystem& sys) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "engine/core/math.hpp"
+#include "engine/core/task_system.hpp"
 
 namespace sinew {
 
@@ -59,14 +60,18 @@ struct BlockSparse3 {
 
     void set_zero() { std::fill(block.begin(), block.end(), Mat3::Zero()); }
 
-    /// q += s A u.
-    void add_product(const std::vector<Vec3>& u, Real s, std::vector<Vec3>& q) const {
-        const std::size_t n = rows();
-        for (std::size_t i = 0; i < n; ++i) {
-            Vec3 sum = Vec3::Zero();
-            for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) sum.noalias() += block[k] * u[col[k]];
-            q[i] += s * sum;
-        }
+    /// q += s A u, row by row (each row writes only its own q[i], so the rows split among the workers of
+    /// `region` give the same sums; null: one thread).
+    void add_product(const std::vector<Vec3>& u, Real s, std::vector<Vec3>& q, ParallelRegion* region = nullptr) const {
+        auto rows_of = [&](int begin, int end, int) {
+            for (std::size_t i = std::size_t(begin); i < std::size_t(end); ++i) {
+                Vec3 sum = Vec3::Zero();
+                for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) sum.noalias() += block[k] * u[col[k]];
+                q[i] += s * sum;
+            }
+        };
+        if (region) region->for_each(int(rows()), 256, rows_of);
+        else rows_of(0, int(rows()), 0);
     }
 };
 

@@ -69,7 +69,7 @@ void prepare_fem_implicit(const SoftBody& b, ImplicitTerms& t) {
 
 void add_fem_product(const SoftBody& b, const ImplicitEulerCache&, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
     const FemState& s = *b.fem;
-    s.stiffness.add_product(u, s.k_scale, q);
+    s.stiffness.add_product(u, s.k_scale, q, b.region);
     if (s.m_scale != 0)
         for (std::size_t i = 0; i < u.size(); ++i) q[i] += (s.m_scale * b.p.mass[i]) * u[i];
 }

@@ -129,6 +129,7 @@ struct SoftBodyId {
 };
 
 struct ImplicitEulerCache;   // soft/implicit_euler.cpp
+class ParallelRegion;        // engine/core/task_system.hpp
 struct FastMassSpringCache;  // soft/fast_mass_spring.cpp
 struct FemState;             // soft/fem_elements.hpp
 
@@ -189,6 +190,9 @@ struct SoftBody {
     Aabb sleep_box;             ///< while asleep: its particles' box fattened by the thickness
     Real sleep_timer = 0;
     std::unique_ptr<ImplicitEulerCache> implicit_cache;
+    /// The soft system's parallel region while it steps the body: a method's large loops (the FEM
+    /// stiffness product) may split across its workers; outside the region's run they run on one thread.
+    ParallelRegion* region = nullptr;
     std::unique_ptr<FastMassSpringCache> fms_cache;
     /// The tets' rest data, rotations, plastic strain and warped stiffness (null without tets).
     std::unique_ptr<FemState> fem;

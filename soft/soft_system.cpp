@@ -329,6 +329,15 @@ bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& co
 void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
+    // The bodies one after the other; a large body's method splits its own loops among the workers
+    // (SoftBody::region). Helpers only when some body is large: waking them costs more than a small step.
+    std::size_t largest = 0;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s)) largest = std::max(largest, bodies_[s].p.size());
+    region_.run(largest >= kParallelParticles ? tasks_ : nullptr, [&] { integrate_velocities_in_region(h); });
+}
+
+void SoftSystem::integrate_velocities_in_region(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;  // put back: sits out the step
         SoftBody& b = bodies_[s];
@@ -344,6 +353,7 @@ void SoftSystem::integrate_velocities(Real h) {
 }
 
 void SoftSystem::begin_step(SoftBody& b, Real h) {
+    b.region = &region_;
     b.awake = true;
     b.stepping = true;
     Particles& p = b.p;

@@ -128,6 +128,9 @@ private:
     void check(SoftBodyId id, const char* where) const;
     void integrate_velocities(Real h);
     /// The IntegrateVelocities part of one body (it is awake and advances this step).
+    void integrate_velocities_in_region(Real h);
+    /// Particles from which a body's method runs its large loops on the workers.
+    static constexpr std::size_t kParallelParticles = 2048;
     void begin_step(SoftBody& b, Real h);
     void detect_collisions(Real h);
     void solve_velocities(Real h);

@@ -496,3 +496,35 @@ TEST_CASE("mesh fills a closed OBJ surface with tets through TetGen, and refuses
     CHECK(bad.status == 1);
     CHECK_THAT(bad.err, Contains("open.obj") && Contains("not closed"));
 }
+
+TEST_CASE("run --workers and bench threads: the same state on two workers as on one", "[tool][threads]") {
+    const std::string scene = quote(kSource + "/demos/scenes/pyramid-20.json");
+    const Result one = sinew_cmd("run " + scene + " --steps 60");
+    const Result two = sinew_cmd("run " + scene + " --steps 60 --workers 2");
+    INFO("stdout: " << one.out << two.out << "\nstderr: " << one.err << two.err);
+    REQUIRE((one.exited && two.exited));
+    REQUIRE((one.status == 0 && two.status == 0));
+    const nlohmann::json a = nlohmann::json::parse(lines_of(one.out).at(0)), b = nlohmann::json::parse(lines_of(two.out).at(0));
+    CHECK(a.count("workers") == 0);
+    CHECK(b["workers"] == 2);
+    CHECK(b["kinetic_energy"] == a["kinetic_energy"]);  // printed to 6 figures; the states are bit-identical
+    CHECK(b["max_penetration"] == a["max_penetration"]);
+    const Result bench = sinew_cmd("bench threads --scenes pyramid-20 --workers 1,2,3 --steps 40 --scene-dir " +
+                                   quote(kSource + "/demos/scenes"));
+    INFO("stdout: " << bench.out << "\nstderr: " << bench.err);
+    REQUIRE(bench.exited);
+    CHECK(bench.status == 0);
+    const std::vector<std::string> lines = lines_of(bench.out);
+    REQUIRE(lines.size() == 3);
+    for (std::size_t k = 0; k < 3; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(lines[k]);
+        CHECK(j["workers"] == int(k) + 1);
+        CHECK(j["steps"] == 40);
+        CHECK(j["identical"] == true);
+        CHECK(j["finite"] == true);
+    }
+    const Result bad = sinew_cmd("run " + scene + " --workers 0");
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 2);
+    CHECK_THAT(bad.err, Contains("--workers"));
+}

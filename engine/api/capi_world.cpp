@@ -36,6 +36,29 @@ sinew_status report_faults(const char* fn, const sinew_world_id& world, const st
     return fail(SINEW_ERROR_NON_FINITE, lines.back());
 }
 
+/// A C caller's threads as a TaskSystem (empty callbacks: the world's own pool), or the failure naming
+/// function `fn` and the fields, each written after `field` ("def->" or "").
+sinew_status task_system_of(const char* fn, const std::string& field, int worker_count, sinew_enqueue_task_fn* enqueue,
+                            sinew_finish_task_fn* finish, void* context, TaskSystem& out) {
+    const std::string where = std::string(fn) + ": ";
+    if ((enqueue == nullptr) != (finish == nullptr))
+        return fail(SINEW_ERROR_INVALID_ARGUMENT,
+                    where + field + "enqueue_task and " + field + "finish_task must be set together");
+    if (worker_count < 1 || worker_count > kMaxWorkers)
+        return fail(SINEW_ERROR_INVALID_ARGUMENT, where + field + "worker_count = " + std::to_string(worker_count) +
+                                                      " must be in [1, " + std::to_string(kMaxWorkers) + "]");
+    out = TaskSystem{};
+    if (enqueue) {
+        // sinew_task_fn and TaskFn have the same signature (begin, end, worker, context); only the
+        // language linkage of the C caller's function types differs.
+        out.worker_count = worker_count;
+        out.enqueue = reinterpret_cast<void* (*)(TaskFn, int, int, void*, void*)>(enqueue);
+        out.finish = finish;
+        out.user_context = context;
+    }
+    return SINEW_OK;
+}
+
 }  // namespace
 
 extern "C" {
@@ -72,22 +95,11 @@ sinew_status sinew_world_create(const sinew_world_def* def, sinew_world_id* out)
                         std::string(fn) + ": def->solver = " + std::to_string(solver) + " is not a sinew_solver");
         if (def->enable_sleep != 0 && def->enable_sleep != 1)
             return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->enable_sleep must be 0 or 1");
-        if ((def->enqueue_task == nullptr) != (def->finish_task == nullptr))
-            return fail(SINEW_ERROR_INVALID_ARGUMENT,
-                        std::string(fn) + ": def->enqueue_task and def->finish_task must be set together");
-        if (def->worker_count < 1 || def->worker_count > kMaxWorkers)
-            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": def->worker_count = " +
-                                                          std::to_string(def->worker_count) + " must be in [1, " +
-                                                          std::to_string(kMaxWorkers) + "]");
         WorldSettings ws;
+        if (sinew_status s = task_system_of(fn, "def->", def->worker_count, def->enqueue_task,
+                                            def->finish_task, def->user_task_context, ws.tasks))
+            return s;
         ws.workers = def->worker_count;
-        if (def->enqueue_task) {
-            // sinew_task_fn and TaskFn are the same signature (begin, end, worker, context).
-            ws.tasks.worker_count = def->worker_count;
-            ws.tasks.enqueue = reinterpret_cast<void* (*)(TaskFn, int, int, void*, void*)>(def->enqueue_task);
-            ws.tasks.finish = def->finish_task;
-            ws.tasks.user_context = def->user_task_context;
-        }
         ws.time_step = Real(def->time_step);
         ws.max_steps_per_frame = def->max_steps_per_frame;
         ws.rigid.gravity = to_vec(def->gravity);
@@ -122,18 +134,10 @@ sinew_status sinew_world_set_workers(sinew_world_id id, int worker_count, sinew_
         World* w = find_world(id, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
         if (sinew_status s = check_not_stepping(w, fn)) return s;
-        if ((enqueue_task == nullptr) != (finish_task == nullptr))
-            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": enqueue_task and finish_task must be set together");
-        if (worker_count < 1 || worker_count > kMaxWorkers)
-            return fail(SINEW_ERROR_INVALID_ARGUMENT, std::string(fn) + ": worker_count = " + std::to_string(worker_count) +
-                                                          " must be in [1, " + std::to_string(kMaxWorkers) + "]");
         TaskSystem tasks;
-        if (enqueue_task) {
-            tasks.worker_count = worker_count;
-            tasks.enqueue = reinterpret_cast<void* (*)(TaskFn, int, int, void*, void*)>(enqueue_task);
-            tasks.finish = finish_task;
-            tasks.user_context = user_task_context;
-        }
+        if (sinew_status s = task_system_of(fn, "", worker_count, enqueue_task, finish_task,
+                                            user_task_context, tasks))
+            return s;
         w->set_threads(worker_count, tasks);
         return SINEW_OK;
     });

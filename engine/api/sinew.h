@@ -80,14 +80,18 @@ typedef enum sinew_solver {
 
 /* The host's job system (the shape of Box2D v3's task callbacks). Sinew calls enqueue_task with tasks
    of one item, up to worker_count - 1 per parallel part of a step, and runs its own share on the calling
-   thread; it never waits for a task to start, so running a task late, on any worker, or inline inside
-   enqueue_task is correct. */
+   thread. The work never waits for a task to start: a task may run late, on any worker, or inline inside
+   enqueue_task on the calling thread. But at the end of each part Sinew calls finish_task for each task,
+   so finish_task must see it run: run it there if no worker has started it (a finish that only waits can
+   deadlock when every worker is busy). enqueue_task must not wait for the task unless it runs it on the
+   calling thread. Workers must use the calling thread's floating-point mode (rounding, flush-to-zero) for
+   results to be bit-identical across worker counts. */
 typedef void sinew_task_fn(int begin, int end, int worker_index, void* task_context);
 /* Runs task over items [0, item_count) in ranges of at least min_range, with worker_index below the
    world's worker_count; returns a handle for finish_task, or NULL if it ran the task before returning. */
 typedef void* sinew_enqueue_task_fn(sinew_task_fn* task, int item_count, int min_range, void* task_context,
                                     void* user_context);
-/* Waits until the task of handle user_task (never NULL) has run. */
+/* Returns once the task of handle user_task (never NULL) has run; runs it here if no worker started it. */
 typedef void sinew_finish_task_fn(void* user_task, void* user_context);
 
 typedef struct sinew_world_def {

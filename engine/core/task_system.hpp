@@ -7,9 +7,10 @@
 // and publishes stages (a loop over items cut into blocks); up to worker_count - 1 helper tasks join in
 // and claim blocks of the current stage with one atomic each. Helpers spin between the stages of one
 // region, so a region of a hundred short stages (the soft step's colours times sub-steps) costs one
-// enqueue per helper, not one per stage. Nothing ever waits for a helper to start: the calling thread can
-// run every block itself, so a host that runs tasks late, one at a time, or inline inside enqueue is
-// still correct, only slower.
+// enqueue per helper, not one per stage. The work never waits for a helper to start: the calling thread
+// can run every block itself, so a host that runs tasks late, one at a time, or inline inside enqueue is
+// correct, only slower. The region's end does wait for each helper task (finish), so a host's finish
+// must run a task no worker has started.
 //
 // Determinism: a stage's result must not depend on which worker runs which block. The stages written
 // for it make each item write only its own outputs (a colour's contact batches share no moving body;
@@ -18,6 +19,8 @@
 
 #include <atomic>
 #include <cstdint>
+#include <exception>
+#include <mutex>
 #include <thread>
 #include <type_traits>
 
@@ -27,9 +30,12 @@ namespace sinew {
 using TaskFn = void (*)(int begin, int end, int worker, void* task_context);
 
 /// The host's job system. `enqueue` runs `task` over items [0, item_count), in ranges of at least
-/// `min_range` items, on its workers, and returns a handle that `finish` waits on; it may instead run
-/// the task inline before returning and return null (then `finish` is not called). Sinew enqueues only
-/// tasks of one item (one per helper of a region) and runs its own share on the calling thread.
+/// `min_range` items, on its workers, and returns a handle for `finish`; it may instead run the task on
+/// the calling thread before returning and return null (then `finish` is not called), but must not wait
+/// for it on another thread. `finish` returns once the task has run, running it itself if no worker has
+/// started it. Sinew enqueues only tasks of one item (one per helper of a region) and runs its own share
+/// on the calling thread. Workers must use the calling thread's floating-point mode (rounding,
+/// flush-to-zero), or results depend on which worker ran what.
 struct TaskSystem {
     /// Threads that may work on one step at the same time, the calling thread included (1 = serial).
     int worker_count = 1;
@@ -66,9 +72,12 @@ public:
     /// a stage's `worker` need this many entries.
     int workers() const { return workers_; }
 
-    /// A stage: fn(begin, end, worker) over items [0, count) in blocks of at least `min_block` items,
-    /// on this thread and the helpers; returns when every block is done. Outside run() or with one
-    /// worker it is fn(0, count, 0). fn must not throw.
+    /// A stage: fn(begin, end, worker) over items [0, count) in blocks (about count / (4 workers), at
+    /// least min_block items unless the count is not a multiple), on this thread and the helpers; returns
+    /// when every block is done. Outside run() or with one worker it is fn(0, count, 0). Only the thread
+    /// that called run() publishes stages (no stage inside a stage). If a block throws, the stage's other
+    /// blocks still finish (without running fn once an exception is held) and the first exception is
+    /// rethrown here.
     template <class Fn>
     void for_each(int count, int min_block, Fn&& fn) {
         if (count <= 0) return;
@@ -108,10 +117,17 @@ private:
         void* handle;
     };
 
+    /// Runs block [begin, end) of the current stage, holding the first exception any block throws.
+    void run_block(int begin, int end, int worker) noexcept;
+
     Range ranges_[kMaxWorkers];
-    std::atomic<std::uint32_t> stage_{0};  // the sequence of the stage published last
-    std::atomic<int> done_{0};
+    // Written by every block's end: kept off the line the spinning helpers read.
+    alignas(64) std::atomic<int> done_{0};
+    alignas(64) std::atomic<std::uint32_t> stage_{0};  // the sequence of the stage published last
     std::atomic<bool> exit_{false};
+    std::atomic<bool> failed_{false};  // a block of the current stage threw (error_ holds it)
+    std::mutex error_mutex_;
+    std::exception_ptr error_;
     Thunk thunk_ = nullptr;
     void* ctx_ = nullptr;
     int count_ = 0;

@@ -18,16 +18,24 @@ ThreadPool::ThreadPool(int worker_count) {
     tasks_.finish = &ThreadPool::finish;
     tasks_.user_context = this;
     threads_.reserve(std::size_t(worker_count - 1));
-    for (int k = 1; k < worker_count; ++k) threads_.emplace_back([this, k] { worker_loop(k); });
+    try {
+        for (int k = 1; k < worker_count; ++k) threads_.emplace_back([this, k] { worker_loop(k); });
+    } catch (...) {
+        stop_threads();  // the threads started so far, before the exception leaves the constructor
+        throw;
+    }
 }
 
-ThreadPool::~ThreadPool() {
+ThreadPool::~ThreadPool() { stop_threads(); }
+
+void ThreadPool::stop_threads() {
     {
         std::lock_guard<std::mutex> lock(mutex_);
         stop_ = true;
     }
     wake_.notify_all();
     for (std::thread& t : threads_) t.join();
+    threads_.clear();
 }
 
 void* ThreadPool::enqueue(TaskFn fn, int count, int, void* ctx, void* user) {

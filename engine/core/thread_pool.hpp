@@ -37,6 +37,7 @@ private:
     static void* enqueue(TaskFn fn, int count, int min_range, void* ctx, void* pool);
     static void finish(void* job, void* pool);
     void worker_loop(int worker);
+    void stop_threads();
     Job* take_job();
 
     TaskSystem tasks_;

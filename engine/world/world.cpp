@@ -44,16 +44,18 @@ void World::set_threads(int workers, const TaskSystem& tasks) {
     if (count < 1 || count > kMaxWorkers)
         throw std::invalid_argument(std::string(host ? "tasks.worker_count" : "workers") + " must be in [1, " +
                                     std::to_string(kMaxWorkers) + "], got " + std::to_string(count));
+    // The new pool first: if starting its threads fails, the world keeps the threads it had.
+    std::unique_ptr<ThreadPool> pool;
+    if (!host && workers > 1 && !(pool_ && pool_->worker_count() == workers)) pool = std::make_unique<ThreadPool>(workers);
     if (host) {
-        pool_.reset();
         tasks_ = tasks;
+        pool_.reset();
     } else if (workers == 1) {
-        pool_.reset();
         tasks_ = TaskSystem{};
-    } else if (!pool_ || pool_->worker_count() != workers) {
         pool_.reset();
-        pool_ = std::make_unique<ThreadPool>(workers);
-        tasks_ = pool_->task_system();
+    } else if (pool) {
+        tasks_ = pool->task_system();
+        pool_ = std::move(pool);
     }
     settings_.workers = count;
     settings_.tasks = host ? tasks : TaskSystem{};
@@ -74,6 +76,32 @@ void World::set_gravity(const Vec3& g) {
     for (BodyId id : rigid_->bodies())
         if (rigid_->type(id) == BodyType::Dynamic) rigid_->wake(id);
     for (SoftBodyId id : soft_->bodies()) soft_->wake(id);
+}
+
+std::uint64_t World::state_hash() const {
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&h](const void* p, std::size_t n) {
+        const unsigned char* c = static_cast<const unsigned char*>(p);
+        for (std::size_t i = 0; i < n; ++i) {
+            h ^= c[i];
+            h *= 1099511628211ull;
+        }
+    };
+    const RigidSystem::State& st = rigid_->state();
+    for (std::size_t s = 0; s < st.x.size(); ++s) {
+        mix(st.x[s].data(), sizeof(Real) * 3);
+        mix(st.q[s].coeffs().data(), sizeof(Real) * 4);
+        mix(st.v[s].data(), sizeof(Real) * 3);
+        mix(st.w[s].data(), sizeof(Real) * 3);
+    }
+    for (SoftBodyId id : soft_->bodies()) {
+        const Particles& p = soft_->body(id).p;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            mix(p.x[i].data(), sizeof(Real) * 3);
+            mix(p.v[i].data(), sizeof(Real) * 3);
+        }
+    }
+    return h;
 }
 
 void World::step() {

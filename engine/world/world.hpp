@@ -76,6 +76,9 @@ public:
     /// order found (rigid before soft within a step). Each was put back where its step found it, at rest
     /// (engine/core/step_fault.hpp); the world is valid and steps on.
     const std::vector<StepFault>& faults() const { return faults_; }
+    /// FNV-1a over every rigid body slot's position, orientation, velocity and spin and every soft body's
+    /// particle positions and velocities: equal hashes, equal states bit for bit (determinism checks).
+    std::uint64_t state_hash() const;
 
 private:
     void step_once();

@@ -3,7 +3,6 @@
 // Times are wall clock: the helpers' work is on other threads.
 #include "tools/bench/bench_threads.hpp"
 
-#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -35,32 +34,6 @@ struct ThreadRun {
     bool finite = true;
 };
 
-/// FNV-1a over every rigid body's x, q, v, w and every particle's x, v.
-std::uint64_t state_hash(const World& w) {
-    std::uint64_t h = 1469598103934665603ull;
-    auto mix = [&h](const void* p, std::size_t n) {
-        const unsigned char* c = static_cast<const unsigned char*>(p);
-        for (std::size_t i = 0; i < n; ++i) {
-            h ^= c[i];
-            h *= 1099511628211ull;
-        }
-    };
-    const RigidSystem::State& st = w.rigid().state();
-    for (std::size_t s = 0; s < st.x.size(); ++s) {
-        mix(st.x[s].data(), sizeof(Real) * 3);
-        mix(st.q[s].coeffs().data(), sizeof(Real) * 4);
-        mix(st.v[s].data(), sizeof(Real) * 3);
-        mix(st.w[s].data(), sizeof(Real) * 3);
-    }
-    for (SoftBodyId id : w.soft().bodies()) {
-        const Particles& p = w.soft().body(id).p;
-        for (std::size_t i = 0; i < p.size(); ++i) {
-            mix(p.x[i].data(), sizeof(Real) * 3);
-            mix(p.v[i].data(), sizeof(Real) * 3);
-        }
-    }
-    return h;
-}
 
 std::string to_json_line(const ThreadRun& r) {
     char buf[512];
@@ -145,13 +118,13 @@ int cmd_bench_threads(const std::vector<std::string>& args) {
                 }
             }
         }
-        const std::uint64_t first_hash = state_hash(*worlds[0]);
+        const std::uint64_t first_hash = worlds[0]->state_hash();
         for (std::size_t k = 0; k < worlds.size(); ++k) {
             ThreadRun& r = here[k];
             r.finite = r.finite && worlds[k]->rigid().all_finite() && worlds[k]->soft().all_finite();
             r.ms_per_step_median = median(ms[k]);
             r.speedup = r.ms_per_step_median > 0 ? median(ms[0]) / r.ms_per_step_median : 0;
-            r.identical = state_hash(*worlds[k]) == first_hash;
+            r.identical = worlds[k]->state_hash() == first_hash;
             runs.push_back(r);
             std::cout << to_json_line(r) << std::endl;
         }
