@@ -330,10 +330,11 @@ void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
     // The bodies one after the other; a large body's method splits its own loops among the workers
-    // (SoftBody::region). Helpers only when some body is large: waking them costs more than a small step.
+    // (SoftBody::region: today the FEM stiffness product). Helpers only when such a body is large: waking
+    // them for a 64x64 cloth, whose methods split nothing, made its step 0.85x as fast.
     std::size_t largest = 0;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (slots_.alive(s)) largest = std::max(largest, bodies_[s].p.size());
+        if (slots_.alive(s) && bodies_[s].fem) largest = std::max(largest, bodies_[s].p.size());
     region_.run(largest >= kParallelParticles ? tasks_ : nullptr, [&] { integrate_velocities_in_region(h); });
 }
 
