@@ -50,15 +50,21 @@ void counting_free(void* p, size_t size, void* user) {
     std::free(p);
 }
 
-/// A ground and a column of `n` unit boxes.
-sinew_world_id stack_world(int n) {
-    sinew_world_id w = make_world();
+/// A static ground box, 1 m thick, its top at y = 0, `half` metres to each side.
+void add_ground(sinew_world_id w, float half) {
     sinew_body_def g = sinew_body_def_default();
     g.type = SINEW_BODY_STATIC;
-    g.shape.half_extents = {10, 0.5f, 10};
+    g.shape.half_extents = {half, 0.5f, half};
     g.transform.p = {0, -0.5f, 0};
     sinew_body_id id;
     REQUIRE(sinew_body_create(w, &g, &id) == SINEW_OK);
+}
+
+/// A ground and a column of `n` unit boxes.
+sinew_world_id stack_world(int n) {
+    sinew_world_id w = make_world();
+    add_ground(w, 10);
+    sinew_body_id id;
     for (int i = 0; i < n; ++i) {
         sinew_body_def b = sinew_body_def_default();
         b.mass = 1;
@@ -425,12 +431,8 @@ struct HostJobs {
 std::vector<float> pyramid_after_two_seconds(const sinew_world_def& d) {
     sinew_world_id w{};
     REQUIRE(sinew_world_create(&d, &w) == SINEW_OK);
-    sinew_body_def g = sinew_body_def_default();
-    g.type = SINEW_BODY_STATIC;
-    g.shape.half_extents = {20, 0.5f, 20};
-    g.transform.p = {0, -0.5f, 0};
+    add_ground(w, 20);
     sinew_body_id id;
-    REQUIRE(sinew_body_create(w, &g, &id) == SINEW_OK);
     for (int row = 0; row < 16; ++row)
         for (int i = 0; i < 16 - row; ++i) {
             sinew_body_def b = sinew_body_def_default();
