@@ -83,7 +83,7 @@ TEST_CASE("C API: two-way coupling holds a ball on a cloth and reports its weigh
     sinew_world_destroy(t.world);
 }
 
-TEST_CASE("C API: one-way by default lets the ball through; a pair override makes that pair two-way", "[capi][coupling]") {
+TEST_CASE("C API: one-way by default lets the ball through, a pair override makes that pair two-way", "[capi][coupling]") {
     Trampoline t = make_trampoline();
     for (int s = 0; s < 90; ++s) REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
     sinew_transform xf;

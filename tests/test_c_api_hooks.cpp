@@ -166,7 +166,7 @@ TEST_CASE("C API hooks: an allocator that fails gives SINEW_ERROR_INTERNAL and n
     CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("allocator->alloc is NULL"));
 }
 
-TEST_CASE("C API hooks: worlds run on different threads at once; the last error is per thread", "[capi][hooks][threads]") {
+TEST_CASE("C API hooks: worlds run on different threads at once, the last error is per thread", "[capi][hooks][threads]") {
     // The same scene on two threads at once and on this one: the same engine and the same steps give
     // the same numbers (worlds share no mutable state).
     // No Catch2 assertions inside the threads (Catch2 v2 is not thread-safe): plain calls, checked after.

@@ -124,7 +124,7 @@ TEST_CASE("C API joints: a joint weaker than the load breaks, reported once with
     REQUIRE(sinew_world_destroy(r.world) == SINEW_OK);
 }
 
-TEST_CASE("C API joints: a hinge motor reaches its speed; the limit stops it", "[capi][joints]") {
+TEST_CASE("C API joints: a hinge motor reaches its speed, the limit stops it", "[capi][joints]") {
     Rig r = make_rig(0.0f, {0, 5, 0});
     sinew_joint_def j = joint_between(r, SINEW_JOINT_HINGE);
     j.local_axis_a = {0, 0, 1};
@@ -176,7 +176,7 @@ TEST_CASE("C API joints: a slider falls to its lower limit along its axis only",
     REQUIRE(sinew_world_destroy(r.world) == SINEW_OK);
 }
 
-TEST_CASE("C API joints: a distance spring sags by g / omega^2; a weld holds", "[capi][joints]") {
+TEST_CASE("C API joints: a distance spring sags by g / omega^2, a weld holds", "[capi][joints]") {
     Rig r = make_rig();
     sinew_joint_def j = joint_between(r, SINEW_JOINT_DISTANCE);
     j.length = 1;           // the anchors (body origins) are 1 m apart at creation

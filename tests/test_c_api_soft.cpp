@@ -168,7 +168,7 @@ TEST_CASE("C API soft: builders make the particle counts their geometry implies"
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
 
-TEST_CASE("C API soft: an attached particle follows its rigid point; detached it falls", "[capi][soft]") {
+TEST_CASE("C API soft: an attached particle follows its rigid point, detached it falls", "[capi][soft]") {
     sinew_world_id w = make_world();
     sinew_body_def k = sinew_body_def_default();
     k.type = SINEW_BODY_KINEMATIC;

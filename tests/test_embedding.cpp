@@ -138,7 +138,7 @@ TEST_CASE("an impulse on an embedded body's proxy changes its nodes' momenta by 
     CHECK((w->rigid().linear_velocity(proxy) * w->rigid().mass(proxy) - dp).norm() <= tol * j.norm() + 1e-6);
 }
 
-TEST_CASE("five embedded soft cubes stand stacked for 10 s; coupled two-way they fall through each other", "[embedding]") {
+TEST_CASE("five embedded soft cubes stand stacked for 10 s, coupled two-way they fall through each other", "[embedding]") {
     // demos/scenes/stack-of-soft-cubes.json with sleeping off: five 10.8 kg FEM cubes, 1 cm apart.
     // Embedded, each is one proxy and the rigid solver stacks them: every centre of mass stays within
     // 2 cm (the issue's bound) of where it is after the first second's settling (measured: < 0.1 mm under

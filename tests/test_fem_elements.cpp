@@ -166,7 +166,7 @@ TEST_CASE("Patch test: a linear displacement on the boundary is reproduced insid
     }
 }
 
-TEST_CASE("Linear elements inflate under a large bend; corotational ones keep the volume", "[fem]") {
+TEST_CASE("Linear elements inflate under a large bend, corotational ones keep the volume", "[fem]") {
     // Seed 001 figure 2: a soft beam clamped at one end sags through a large angle under gravity.
     const TetMesh mesh = make_tet_box(Vec3::Zero(), Vec3(1, 0.1, 0.1), 10, 1, 1);
     for (const FemRotation r : {FemRotation::Linear, FemRotation::Polar, FemRotation::QR}) {

@@ -586,7 +586,7 @@ TEST_CASE("invalid joint definitions throw RigidError and create nothing", "[joi
     CHECK_THROWS_AS(rs.joints().set_motor(JointId{}, true, 1, 1), RigidError);
 }
 
-TEST_CASE("destroying a body removes its joints; joints filter contacts unless collide_connected", "[joints]") {
+TEST_CASE("destroying a body removes its joints, joints filter contacts unless collide_connected", "[joints]") {
     WorldSettings ws;
     ws.rigid.gravity = Vec3::Zero();
     World world(ws);
@@ -769,7 +769,7 @@ TEST_CASE("bad joints in a scene file are reported at their JSON path", "[joints
 // `sinew run` then printed finite: true with a zero quaternion). The blow-up itself is a documented limit
 // of the soft step (docs/rigid-solvers.md, "a motor far beyond its body's inertia"); what is asserted is
 // that the step names the arm and puts it back, and that the world stays finite and steps on.
-TEST_CASE("a hinge motor far beyond its arm's inertia blows up; the step names the arm and contains it",
+TEST_CASE("a hinge motor far beyond its arm's inertia blows up, the step names the arm and contains it",
           "[joints][errors]") {
     const std::string scene = R"({"format": "sinew-scene", "version": 1, "name": "motor-arm",
       "bodies": [

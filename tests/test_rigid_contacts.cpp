@@ -224,7 +224,7 @@ TEST_CASE("known failure: shock propagation with few contact iterations holds th
     CHECK(w.rigid().transform(ids.back()).p.y() < Real(5.5) - Real(0.5));
 }
 
-TEST_CASE("a settled stack falls asleep; a box dropped on it wakes the island and nothing floats", "[rigid][sleeping]") {
+TEST_CASE("a settled stack falls asleep, a box dropped on it wakes the island and nothing floats", "[rigid][sleeping]") {
     WorldSettings ws;
     World w(ws);
     add_ground(w);

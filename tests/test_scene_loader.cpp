@@ -437,7 +437,7 @@ TEST_CASE("soft bodies: every builder, method and setting is read as written", "
     CHECK((built_rope.p.x[0] - Vec3(3, Real(3.9), 0)).norm() < 1e-5);
 }
 
-TEST_CASE("the solver is one kind; files naming sequential_impulse and a position_correction still load", "[scene]") {
+TEST_CASE("the solver is one kind, files naming sequential_impulse and a position_correction still load", "[scene]") {
     // tests/data/scenes/good/joints.json is written in the older form.
     CHECK(parse_scene_file(kScenes + "/good/joints.json").settings.rigid.solver == RigidSolverKind::SplitImpulse);
     for (RigidSolverKind k : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,

@@ -182,7 +182,7 @@ TEST_CASE("particle friction on a slope: sticks below atan(mu), slides with g(si
     }
 }
 
-TEST_CASE("restitution: a particle rebounds to e^2 of its drop height; e = 0 does not bounce", "[soft][collision]") {
+TEST_CASE("restitution: a particle rebounds to e^2 of its drop height, e = 0 does not bounce", "[soft][collision]") {
     for (SoftMethod method : {SoftMethod::Verlet, SoftMethod::SemiImplicitEuler}) {
         for (Real e : {Real(0), Real(0.6)}) {
             DYNAMIC_SECTION(soft_method_name(method) << ", e = " << e) {
@@ -215,7 +215,7 @@ TEST_CASE("restitution: a particle rebounds to e^2 of its drop height; e = 0 doe
     }
 }
 
-TEST_CASE("one-way coupling: a kinematic box pushes particles; attached particles follow their body", "[soft][collision]") {
+TEST_CASE("one-way coupling: a kinematic box pushes particles, attached particles follow their body", "[soft][collision]") {
     WorldSettings ws;
     ws.rigid.gravity = Vec3::Zero();
     World world(ws);
@@ -266,7 +266,7 @@ TEST_CASE("one-way coupling: a kinematic box pushes particles; attached particle
     CHECK((world.soft().body(hanging).p.x[0] - last).norm() < 1e-6);
 }
 
-TEST_CASE("a soft body at rest falls asleep; a box dropped on it wakes it", "[soft][sleep]") {
+TEST_CASE("a soft body at rest falls asleep, a box dropped on it wakes it", "[soft][sleep]") {
     World world;
     BodyDef ground;
     ground.type = BodyType::Static;

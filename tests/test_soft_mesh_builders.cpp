@@ -267,7 +267,7 @@ TEST_CASE("mesh body: an icosphere's own mesh gives back its edge links", "[soft
     CHECK(within2 > 3 * ball.links.size() - 60);  // each of the 12 defects removes a few far pairs
 }
 
-TEST_CASE("mesh body: bad meshes throw SoftError naming the triangle; unreferenced vertices are fine", "[soft][mesh]") {
+TEST_CASE("mesh body: bad meshes throw SoftError naming the triangle, unreferenced vertices are fine", "[soft][mesh]") {
     const LinkMaterial mat;
     std::vector<Vec3> v = cube_vertices(1);
     std::vector<std::uint32_t> tris = kCubeTriangles;
