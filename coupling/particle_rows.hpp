@@ -72,6 +72,9 @@ public:
     /// solve), then the particles' changes handed to the soft velocities.
     void exchange_pass(RigidSystem& sys);
     bool empty() const { return rows_.empty() && particles_.empty(); }
+    bool active() const override {
+        return !particles_.empty() || !rows_.empty() || !pushes_.empty() || !attach_rows_.empty() || !whole_bodies_.empty();
+    }
     /// At the start of a step: last step's rows and pushes dropped (their bodies may be gone), so nothing
     /// stale is handed on if the rigid solver does not prepare this step. The warm-start impulses stay.
     void reset() {

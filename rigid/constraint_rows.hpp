@@ -112,6 +112,9 @@ public:
     virtual void warm_start(const RigidSystem& sys, const BodyVelocities& vel) = 0;
     virtual void solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) = 0;
     virtual void positions_advanced(const RigidSystem&, const BodyVelocities&, Real /*h*/) {}
+    /// After prepare(): false when this step's passes would do nothing at all (no rows, nothing to push),
+    /// so a solver may skip the source, e.g. to work through independent islands one block at a time.
+    virtual bool active() const { return true; }
     virtual void finish(RigidSystem&, Real /*h*/) {}
 };
 

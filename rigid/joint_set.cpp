@@ -337,6 +337,8 @@ void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
     j.def.max_motor_force = max_force;
 }
 
+bool JointSet::active() const { return !impl_->active.empty(); }
+
 void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();

@@ -77,6 +77,8 @@ public:
     /// The impulses are divided by the length given to prepare() (the sub-step for a sub-stepping
     /// solver), which is what they accumulated over.
     void finish(RigidSystem& sys, Real h) override;
+    /// Whether prepare() found a joint with a moving body.
+    bool active() const override;
     /// Joints that broke in the last finish().
     const std::vector<JointId>& broken() const;
 

@@ -2,6 +2,8 @@
 // changing their state by handle.
 #include "rigid/rigid_system.hpp"
 
+#include "rigid/rigid_solver.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -333,6 +335,14 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
     material_[id.index].restitution = m.restitution;
 }
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
+int RigidSystem::last_solve_blocks() const { return solver_ ? solver_->last_solve_blocks() : 0; }
+
+std::size_t RigidSystem::awake_count() const {
+    std::size_t n = 0;
+    for (std::uint32_t s = 0; s < slots_.size(); ++s)
+        if (slots_.alive(s) && type_[s] == BodyType::Dynamic && awake_[s]) ++n;
+    return n;
+}
 void RigidSystem::wake(BodyId id) { check(id, "wake"); wake_island(id.index); }
 std::uint64_t RigidSystem::user_data(BodyId id) const { check(id, "user_data"); return user_data_[id.index]; }
 

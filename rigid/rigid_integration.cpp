@@ -52,20 +52,26 @@ void RigidSystem::follow_rotation(std::uint32_t s) {
     w_frame_[s] = state_.q[s];
 }
 
+void RigidSystem::integrate_velocity(std::uint32_t s, Real h) {
+    if (state_.inv_mass[s] == 0) return;
+    Vec3 v = state_.v[s] + h * (gravity_scale_[s] * settings_.gravity + body_inv_mass_[s] * state_.force[s]);
+    follow_rotation(s);  // the gyroscopic effect of the rotation since the last velocity update
+    Vec3 w = state_.w[s] + h * (state_.inv_inertia_world[s] * state_.torque[s]);
+    // Implicit damping factor 1/(1 + h c): unconditionally stable, as Box2D does.
+    state_.v[s] = v / (1 + h * linear_damping_[s]);
+    state_.w[s] = w / (1 + h * angular_damping_[s]);
+}
+
 void RigidSystem::integrate_velocities(Real h) {
     // Each body on its own: split among the workers when called inside a parallel region (the soft
     // step's sub-steps), one loop otherwise.
     region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
-        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s) {
-            if (state_.inv_mass[s] == 0) continue;
-            Vec3 v = state_.v[s] + h * (gravity_scale_[s] * settings_.gravity + body_inv_mass_[s] * state_.force[s]);
-            follow_rotation(s);  // the gyroscopic effect of the rotation since the last velocity update
-            Vec3 w = state_.w[s] + h * (state_.inv_inertia_world[s] * state_.torque[s]);
-            // Implicit damping factor 1/(1 + h c): unconditionally stable, as Box2D does.
-            state_.v[s] = v / (1 + h * linear_damping_[s]);
-            state_.w[s] = w / (1 + h * angular_damping_[s]);
-        }
+        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s) integrate_velocity(s, h);
     });
+}
+
+void RigidSystem::integrate_velocities_of(const std::uint32_t* slots, std::size_t count, Real h) {
+    for (std::size_t i = 0; i < count; ++i) integrate_velocity(slots[i], h);
 }
 
 void RigidSystem::integrate_positions(Real h) {

@@ -37,6 +37,10 @@ struct RigidSettings {
     /// it should (the intermediate-axis flip), stable at any spin. Off: w changes only by torques and
     /// contacts.
     bool gyroscopic = true;
+    /// Soft step: a world of many independent islands is solved a block of islands at a time, each block
+    /// through all its sub-steps while it is in cache (bit-identical to colour-major passes over the
+    /// whole world; turn off only to compare).
+    bool solve_in_blocks = true;
     Real contact_hertz = 60;           ///< soft step: contact stiffness (Hz), capped at a quarter of the sub-step rate
     /// Soft step: critically damped, so pushing out adds no bounce. With the graph-coloured solver a
     /// higher ratio makes the contact closer to rigid and worse conditioned: pyramid-40 vibrates at 1.5

@@ -30,6 +30,9 @@ public:
     /// After solve_velocities: the time IntegratePositions will still integrate with the current
     /// velocities (the whole step, or a sub-stepping solver's last sub-step).
     virtual Real unintegrated_time_after_solve(Real h) const { return h; }
+    /// Blocks of independent islands the last solve worked through one at a time (the soft step on a
+    /// world of many islands; 0: passes over the whole world).
+    virtual int last_solve_blocks() const { return 0; }
 };
 
 /// Writes each prepared constraint's accumulated impulses back into its manifold's points, where the

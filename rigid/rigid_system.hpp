@@ -77,6 +77,8 @@ public:
     void run_stage(Stage stage, const StepContext& ctx) override;
 
     const RigidSettings& settings() const { return settings_; }
+    /// Blocks of islands the last step's solve worked through one at a time (0: whole-world passes).
+    int last_solve_blocks() const;
     /// Validates and applies new settings (throws RigidError naming the bad field).
     void set_settings(const RigidSettings& s);
 
@@ -130,6 +132,8 @@ public:
     /// is attached to). Forgotten when either body is destroyed. Throws RigidError for a bad id.
     void ignore_pair(BodyId a, BodyId b, bool ignore);
     bool awake(BodyId id) const;
+    /// Dynamic bodies awake now.
+    std::size_t awake_count() const;
     void wake(BodyId id);
     std::uint64_t user_data(BodyId id) const;
 
@@ -229,8 +233,12 @@ public:
     /// Gravity, forces and damping into the velocities of moving bodies over h (solvers that sub-step
     /// call it once per sub-step).
     void integrate_velocities(Real h);
+    /// The same for the listed slots only, on the calling thread (a solver working through one block of
+    /// independent islands at a time).
+    void integrate_velocities_of(const std::uint32_t* slots, std::size_t count, Real h);
 
 private:
+    void integrate_velocity(std::uint32_t s, Real h);
     void check(BodyId id, const char* where) const;
     void prepare_mass_state();
     void detect_collisions(Real h);

@@ -15,6 +15,7 @@
 #include "tools/bench/bench_cloth.hpp"
 #include "tools/bench/bench_coupling.hpp"
 #include "tools/bench/bench_fem.hpp"
+#include "tools/bench/bench_scale.hpp"
 #include "tools/bench/bench_threads.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
@@ -215,8 +216,9 @@ int cmd_bench(const std::vector<std::string>& args) {
     if (!args.empty() && args[0] == "fem") return cmd_bench_fem(args);  // tools/bench/bench_fem.cpp
     if (!args.empty() && args[0] == "coupling") return cmd_bench_coupling(args);  // tools/bench/bench_coupling.cpp
     if (!args.empty() && args[0] == "threads") return cmd_bench_threads(args);  // tools/bench/bench_threads.cpp
+    if (!args.empty() && args[0] == "scale") return cmd_bench_scale(args);  // tools/bench/bench_scale.cpp
     if (args.empty() || args[0] != "rigid")
-        throw UsageError("which suite? 'rigid', 'cloth', 'fem', 'coupling' or 'threads'");
+        throw UsageError("which suite? 'rigid', 'cloth', 'fem', 'coupling', 'threads' or 'scale'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10, workers = 1;
     bool clock_given = false;
@@ -384,5 +386,15 @@ const Command bench_command = {
     "Steps each scene (default: pyramid-40, many-pyramids, cloth-64, fem-block-20k; 300 steps) in one\n"
     "world per worker count (default 1,2), in alternating chunks; one JSON line per run: scene, workers,\n"
     "bodies, particles, steps, ms_per_step_median (wall), speedup (over the first worker count), identical\n"
-    "(end state bit-identical to the first's), finite. --markdown rewrites bench-threads.\n"};
+    "(end state bit-identical to the first's), finite. --markdown rewrites bench-threads.\n"
+    "\n"
+    "usage: sinew bench scale [--grids 4,10,20,30] [--steps N] [--warmup N] [--sleeping] [--markdown FILE]\n"
+    "\n"
+    "Cost per body as the world grows: G x G grids of 10-row pyramids (55 boxes each; default 880 to 49,500\n"
+    "boxes) on one ground, sleeping off, stepped --warmup steps (60) and then timed for --steps (60), all\n"
+    "sizes in alternating chunks; --sleeping adds as many single boxes resting on the ground with sleeping\n"
+    "on, timed once they sleep (at least 240 steps). One JSON\n"
+    "line per grid: bodies, ms_per_step_median (wall), us_per_body, ratio_to_5k (over the grid nearest\n"
+    "5,000 bodies), us_detect/us_solve/us_positions (the rigid stages per body), bytes_per_body (heap the\n"
+    "settled world took), awake, finite. --markdown rewrites bench-scale.\n"};
 }  // namespace sinew::tool
