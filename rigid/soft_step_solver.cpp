@@ -272,7 +272,9 @@ private:
     std::vector<std::uint32_t> island_of_;           ///< scratch: union-find parent per slot, then the root
     std::vector<std::uint32_t> component_;           ///< scratch: per slot, its island's number
     std::vector<std::uint8_t> in_solve_;             ///< scratch: per slot, 1 if in moving_
-    std::vector<std::uint32_t> count_scratch_;       ///< scratch: counts per component / block and colour
+    std::vector<std::uint32_t> count_scratch_;       ///< scratch: per component, its manifolds, then its block
+    std::vector<std::uint32_t> first_scratch_;       ///< scratch: first manifold per block and colour
+    std::vector<std::uint32_t> next_scratch_;        ///< scratch: fill positions of the counting sorts
 };
 
 void SoftStepSolver::colour(RigidSystem& sys) {
@@ -560,24 +562,22 @@ void SoftStepSolver::plan_blocks(const RigidSystem& sys) {
     for (std::uint32_t s : moving_) ++block_body_start_[per_component[component_[s]] + 1];
     for (std::uint32_t k = 0; k < blocks; ++k) block_body_start_[k + 1] += block_body_start_[k];
     block_bodies_.resize(moving_.size());
-    {
-        std::vector<std::uint32_t> next(block_body_start_.begin(), block_body_start_.end() - 1);
-        for (std::uint32_t s : moving_) block_bodies_[next[per_component[component_[s]]]++] = s;
-    }
+    std::vector<std::uint32_t>& next = next_scratch_;
+    next.assign(block_body_start_.begin(), block_body_start_.end() - 1);
+    for (std::uint32_t s : moving_) block_bodies_[next[per_component[component_[s]]]++] = s;
     // Manifolds by block, then colour, in contact order within each; then the batches: up to
     // kWideLanes manifolds of one colour, one manifold for the overflow.
     constexpr int kLists = ConstraintColouring::kOverflow + 1;
-    std::vector<std::uint32_t> first(std::size_t(blocks) * kLists + 1, 0);
+    std::vector<std::uint32_t>& first = first_scratch_;
+    first.assign(std::size_t(blocks) * kLists + 1, 0);
     for (int c = 0; c < kLists; ++c)
         for (std::uint32_t ci : by_colour_[c]) ++first[std::size_t(per_component[component_of(ci)]) * kLists + std::size_t(c) + 1];
     for (std::size_t k = 1; k < first.size(); ++k) first[k] += first[k - 1];
     batch_manifolds_.resize(first.back());
-    {
-        std::vector<std::uint32_t> next(first.begin(), first.end() - 1);
-        for (int c = 0; c < kLists; ++c)
-            for (std::uint32_t ci : by_colour_[c])
-                batch_manifolds_[next[std::size_t(per_component[component_of(ci)]) * kLists + std::size_t(c)]++] = ci;
-    }
+    next.assign(first.begin(), first.end() - 1);
+    for (int c = 0; c < kLists; ++c)
+        for (std::uint32_t ci : by_colour_[c])
+            batch_manifolds_[next[std::size_t(per_component[component_of(ci)]) * kLists + std::size_t(c)]++] = ci;
     block_colour_start_.assign(std::size_t(blocks) * kColourStarts, 0);
     batch_first_.clear();
     batch_lanes_.clear();

@@ -12,6 +12,12 @@
 
 #include "engine/api/sinew.h"
 
+// Calls with an enum argument given as an int, made from C (tests/c_api_enum_calls.c).
+extern "C" {
+sinew_status sinew_test_set_solver_int(sinew_world_id world, int solver, int velocity_iterations);
+sinew_status sinew_test_set_coupling_int(sinew_world_id world, int strategy, float gain);
+}
+
 namespace capi_test {
 
 /// Stores an out-of-range value in a C enum field the way a C caller can (a C++ cast would be UB).

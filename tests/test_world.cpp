@@ -265,13 +265,13 @@ TEST_CASE("the determinism scene ends bit-identical on 1, 2, 3, 4 and 8 workers"
 // Issue 18, item 4: a world of many islands is solved a block of islands at a time (rigid/soft_step_solver.cpp,
 // plan_blocks), which must change nothing but the speed: the same state, bit for bit, as colour-major
 // passes over the whole world, on one worker and on several.
-TEST_CASE("many islands solved block by block end bit-identical to whole-world passes, on 1, 2 and 3 workers",
+TEST_CASE("many islands solved block by block end bit-identical to whole-world passes, on 1 and 2 workers",
           "[world][determinism][threads]") {
     const char* text = R"({"format":"sinew-scene","version":1,"name":"islands",
         "settings":{"sleeping":{"enabled":false}},
         "materials":{"box":{"density":1000,"friction":0.6,"restitution":0}},
         "generators":[{"type":"pyramid","rows":10,"half_extent":0.5,"spacing":1.0,"base":[0,0,0],"mass":1,
-                       "material":"box","count":[6,6],"grid_spacing":12}],
+                       "material":"box","count":[6,4],"grid_spacing":12}],
         "bodies":[{"name":"ground","type":"static","shape":{"type":"box","half_extents":[50,0.5,50]},
                    "position":[0,-0.5,0],"material":"box"}]})";
     const SceneDesc desc = parse_scene_string(text, "islands.json");
@@ -281,7 +281,7 @@ TEST_CASE("many islands solved block by block end bit-identical to whole-world p
         set.solve_in_blocks = blocks;
         world->rigid().set_settings(set);
         world->set_threads(workers);
-        for (int s = 0; s < 40; ++s) world->step();
+        for (int s = 0; s < 20; ++s) world->step();
         REQUIRE(world->faults().empty());
         REQUIRE(world->rigid().all_finite());
         *used_blocks = world->rigid().last_solve_blocks();
@@ -290,10 +290,10 @@ TEST_CASE("many islands solved block by block end bit-identical to whole-world p
     int blocks = 0;
     const std::uint64_t whole = run(false, 1, &blocks);
     CHECK(blocks == 0);
-    for (int workers : {1, 2, 3}) {
+    for (int workers : {1, 2}) {
         INFO(workers << " workers");
         CHECK(run(true, workers, &blocks) == whole);
-        CHECK(blocks >= 3);  // 36 pyramids of about 150 manifolds in blocks of at least 1,024
+        CHECK(blocks >= 3);  // 24 pyramids of about 150 manifolds in blocks of at least 1,024
     }
 }
 

@@ -60,6 +60,16 @@ private:
     std::size_t i_ = 0;
 };
 
+/// Drops a destroyed handle from the session's list.
+template <class Id>
+void forget(std::vector<Id>& ids, const Id& gone) {
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (ids[i].index == gone.index && ids[i].generation == gone.generation) {
+            ids.erase(ids.begin() + std::ptrdiff_t(i));
+            return;
+        }
+}
+
 bool finite(const sinew_vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 struct Session {
@@ -177,12 +187,7 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
             }
             case 2: {
                 const sinew_body_id b = s.body(in);
-                if (s.watch(sinew_body_destroy(b), "sinew_body_destroy") == SINEW_OK)
-                    for (std::size_t i = 0; i < s.bodies.size(); ++i)
-                        if (s.bodies[i].index == b.index && s.bodies[i].generation == b.generation) {
-                            s.bodies.erase(s.bodies.begin() + std::ptrdiff_t(i));
-                            break;
-                        }
+                if (s.watch(sinew_body_destroy(b), "sinew_body_destroy") == SINEW_OK) forget(s.bodies, b);
                 break;
             }
             case 3: s.watch(sinew_body_set_velocity(s.body(in), in.vec(), in.vec()), "sinew_body_set_velocity"); break;
@@ -300,12 +305,7 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
             }
             case 16: {
                 const sinew_soft_body_id b = s.soft_body(in);
-                if (s.watch(sinew_soft_destroy(b), "sinew_soft_destroy") == SINEW_OK)
-                    for (std::size_t i = 0; i < s.soft.size(); ++i)
-                        if (s.soft[i].index == b.index && s.soft[i].generation == b.generation) {
-                            s.soft.erase(s.soft.begin() + std::ptrdiff_t(i));
-                            break;
-                        }
+                if (s.watch(sinew_soft_destroy(b), "sinew_soft_destroy") == SINEW_OK) forget(s.soft, b);
                 break;
             }
             case 17: s.watch(sinew_world_set_solver(s.world, sinew_solver(in.pick(6)), in.pick(14) - 1), "sinew_world_set_solver"); break;
