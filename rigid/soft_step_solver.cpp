@@ -257,9 +257,9 @@ private:
     Real h_sub_ = 0;
 
     // The blocked solve. A world of many independent islands (many-pyramids) does not fit the cache:
-    // colour-major passes stream every batch from memory three times per sub-step (49,500 boxes spent
-    // 1.9x the 5,500-box time per body in the solve). Islands are then grouped into blocks that are
-    // solved one after another through all the sub-steps. Blocks share no moving body, so every body
+    // colour-major passes stream every batch from memory three times per sub-step (the solve took 3.6 us
+    // per box on 5,500 and on 49,500 boxes in pyramids; 2.6-2.7 us in blocks). Islands are then grouped
+    // into blocks that are solved one after another through all the sub-steps. Blocks share no moving body, so every body
     // gets the same updates in the same order as in colour-major passes, and the result is bit-identical;
     // a block is one worker's task, with no barrier between colours.
     bool blocked_ = false;
