@@ -11,6 +11,7 @@
 // variant then prints one JSON line: its label and settings, median ms per scene step, and its errors
 // (tools/compare_runs.hpp). Progress goes to stderr.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "tools/progress.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
 #include "tools/compare_runs.hpp"
@@ -191,19 +193,35 @@ std::vector<std::string> split_list(const std::string& s) {
 }
 
 /// Compares one scene; returns its markdown section, or "" if nothing ran. Sets `all_finite`.
+/// A file name for a variant's recording: "two-way h/2" -> "two-way-h2".
+std::string slug(const std::string& label) {
+    std::string out;
+    for (char c : label) {
+        if (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') out += c;
+        else if (c == ' ' && !out.empty() && out.back() != '-') out += '-';
+    }
+    return out;
+}
+
 std::string compare_scene(const std::string& path, const std::vector<Variant>& variants, int steps_arg,
                           const CouplingStrategy* reference_override, int reference_divide, const std::string& chart,
-                          const std::string& markdown, bool table, bool& all_finite) {
+                          const std::string& markdown, const std::string& record_dir, bool table, bool& all_finite) {
     const SceneDesc scene = parse_scene_file(path);
     const CouplingStrategy reference_strategy = reference_override ? *reference_override : scene.coupling.compare_reference;
     const int steps = steps_arg > 0 ? steps_arg : scene.steps;
     const std::string name = scene.name.empty() ? std::filesystem::path(path).stem().string() : scene.name;
     const Variant ref{reference_strategy, 1, 1, reference_divide};
     const Variant ref2{reference_strategy, 1, 1, 2 * reference_divide};
-    std::cerr << "sinew compare: " << name << ": reference " << ref.label() << " ..." << std::endl;
-    const Recording reference = compare::run_variant(scene, ref, steps);
-    std::cerr << "sinew compare: " << name << ": reference check " << ref2.label() << " ..." << std::endl;
+    const auto record_path = [&](const std::string& what) {
+        return record_dir.empty() ? std::string() : record_dir + "/" + name + "-" + slug(what) + ".jsonl";
+    };
+    Progress progress("compare " + name, (long long)variants.size() + 2, "runs");
+    progress.set_detail("reference " + ref.label());
+    const Recording reference = compare::run_variant(scene, ref, steps, record_path("reference " + ref.label()));
+    progress.update(1);
+    progress.set_detail("reference check " + ref2.label());
     const Recording finer = compare::run_variant(scene, ref2, steps);
+    progress.update(2);
     if (!reference.finite) throw std::runtime_error(name + ": the reference run (" + ref.label() + ") is not finite");
     const Errors check = compare::errors_against(finer, reference);
     nlohmann::json cj;
@@ -219,11 +237,12 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
 
     std::vector<Row> rows;
     for (const Variant& v : variants) {
-        std::cerr << "sinew compare: " << name << ": " << v.label() << " ..." << std::endl;
+        progress.set_detail(v.label());
         Row r;
         r.variant = v;
         try {
-            r.rec = compare::run_variant(scene, v, steps);
+            r.rec = compare::run_variant(scene, v, steps, record_path(v.label()));
+            progress.update(2 + (long long)(&v - variants.data()) + 1);
         } catch (const std::exception& e) {
             // A strategy the scene cannot run (a joint on a soft body needs it embedded; a world the
             // strategy refuses): said, not run.
@@ -240,6 +259,7 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
         all_finite = all_finite && r.rec.finite;
         rows.push_back(std::move(r));
     }
+    progress.finish();
     mark_pareto(rows);
     if (!table)
         for (const Row& r : rows) std::cout << row_json(name, r).dump() << std::endl;
@@ -257,7 +277,7 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
 int run_compare(const std::vector<std::string>& args) {
     std::vector<std::string> scenes;
     std::vector<std::string> strategies;
-    std::string chart, chart_dir, markdown, scene_dir = "demos/scenes";
+    std::string chart, chart_dir, markdown, record_dir, scene_dir = "demos/scenes";
     int steps = 0, reference_divide = 8;
     CouplingStrategy reference = CouplingStrategy::TwoWay;
     bool all = false, reference_given = false, table = false;
@@ -278,7 +298,10 @@ int run_compare(const std::vector<std::string>& args) {
         else if (is_option(a, "--chart-dir")) chart_dir = option_value(args, i, "--chart-dir");
         else if (is_option(a, "--markdown")) markdown = option_value(args, i, "--markdown");
         else if (is_option(a, "--scene-dir")) scene_dir = option_value(args, i, "--scene-dir");
-        else if (!a.empty() && a[0] == '-') throw UsageError("unknown option " + a);
+        else if (is_option(a, "--record-dir")) {
+            record_dir = option_value(args, i, "--record-dir");
+            if (record_dir.empty()) throw UsageError("--record-dir needs a folder");
+        } else if (!a.empty() && a[0] == '-') throw UsageError("unknown option " + a);
         else scenes.push_back(a);
     }
     if (all) {
@@ -287,6 +310,11 @@ int run_compare(const std::vector<std::string>& args) {
     }
     if (scenes.empty()) throw UsageError("no scene given (a scene file, or --all)");
     if (scenes.size() > 1 && !chart.empty()) throw UsageError("--chart names one file: with several scenes use --chart-dir");
+    if (!record_dir.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(record_dir, ec);
+        if (ec) throw UsageError("--record-dir: cannot create " + record_dir + ": " + ec.message());
+    }
     std::vector<Variant> variants;
     for (const Variant& v : default_variants()) {
         if (strategies.empty()) {
@@ -306,7 +334,7 @@ int run_compare(const std::vector<std::string>& args) {
         std::string png = chart;
         if (!chart_dir.empty()) png = chart_dir + "/compare-" + std::filesystem::path(path).stem().string() + ".png";
         body += compare_scene(path, variants, steps, reference_given ? &reference : nullptr, reference_divide, png,
-                              markdown, table, all_finite);
+                              markdown, record_dir, table, all_finite);
     }
     if (!markdown.empty() && !bench::replace_section(markdown, "compare", body, "sinew compare --all")) {
         std::cerr << "sinew compare: could not write " << markdown << "\n";
@@ -321,6 +349,7 @@ extern const Command compare_command = {
     "compare", run_compare, "run a scene under every coupling and embedding strategy against a reference",
     "usage: sinew compare SCENE.json... [--strategies LIST] [--steps N] [--reference STRATEGY]\n"
     "                     [--reference-divide N] [--chart FILE.png] [--chart-dir DIR] [--markdown FILE.md]\n"
+    "                     [--record-dir DIR]\n"
     "       sinew compare --all [--scene-dir DIR] [...]\n\n"
     "Runs each scene under every coupling and embedding variant (one-way, one-way with 4 soft sub-steps,\n"
     "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid at h and h/2)\n"
@@ -336,6 +365,9 @@ extern const Command compare_command = {
     "  --chart FILE.png       error against time, Pareto front marked (gnuplot); --chart-dir DIR for --all\n"
     "  --markdown FILE.md     rewrite the compare section of FILE (docs/RESULTS.md)\n"
     "  --table                print each scene's table (markdown) instead of the JSON lines\n"
+    "  --record-dir DIR       write each run's playback file to DIR/SCENE-VARIANT.jsonl (the reference's too),\n"
+    "                         to watch side by side: scripts/dev view DIR/SCENE-*.jsonl\n"
+    "Progress is shown on stderr when it is a terminal and CI is not set.\n"
     "Exit status: 0, 1 on a bad scene or output, 2 on bad arguments, 3 if a run was not finite.\n"};
 
 }  // namespace sinew::tool

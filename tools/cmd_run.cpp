@@ -13,6 +13,7 @@
 #include "soft/soft_stability.hpp"
 #include "tools/bench/bench_rigid.hpp"  // median()
 #include "tools/commands.hpp"
+#include "tools/progress.hpp"
 #include "tools/record.hpp"
 
 namespace sinew::tool {
@@ -131,6 +132,7 @@ int run(const std::vector<std::string>& args) {
     const SoftSystem& soft = world->soft();
     bool finite = rigid.all_finite() && soft.all_finite();
     long long done = 0;
+    Progress progress(scene.name.empty() ? opt.scene : scene.name, steps);
     while (finite && done < steps) {
         const auto t0 = std::chrono::steady_clock::now();
         world->step();
@@ -138,13 +140,16 @@ int run(const std::vector<std::string>& args) {
         step_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
         ++done;
         // Stop at the first blow-up: later steps would measure a body put back at rest (World::faults).
+        if (!world->faults().empty()) progress.finish();
         for (const StepFault& f : world->faults())
             std::cerr << "sinew run: step " << f.step << ": " << body_name(scene, ids, *world, f) << ": " << f.outcome()
                       << '\n';
         finite = world->faults().empty() && rigid.all_finite() && soft.all_finite();
         max_penetration = std::max(max_penetration, static_cast<double>(rigid.max_penetration()));
         if (recorder) recorder->write_frame(*world, static_cast<std::uint64_t>(done));
+        progress.update(done);
     }
+    progress.finish();
     if (recorder) recorder->finish();
     if (!opt.save.empty()) save_scene_file(*world, opt.save);  // SceneError (exit 1) if it cannot be written
 
@@ -196,9 +201,12 @@ const Command run_command = {
     "  --workers N     threads for each step, this one included (default 1; results are bit-identical\n"
     "                  for every N)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
-    "                  (docs/record-format.md)\n"
+    "                  (docs/record-format.md): JSON lines, or float32 frames if FILE ends in .sinrec\n"
+    "                  (compact, for large runs); watch it with: scripts/dev view FILE\n"
     "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"
     "                  soft bodies as their particles, velocities; docs/scene-format.md)\n"
+    "\n"
+    "Progress (steps, rate, time left) is shown on stderr when it is a terminal and CI is not set.\n"
     "\n"
     "Exit status: 0 ok, 1 bad scene or unwritable record, 2 bad arguments, 3 the run was not finite.\n"};
 

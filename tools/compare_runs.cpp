@@ -8,6 +8,7 @@
 
 #include "tools/bench/bench_cloth.hpp"  // BenchClock
 #include "tools/bench/bench_rigid.hpp"  // median()
+#include "tools/record.hpp"
 
 namespace sinew::tool::compare {
 
@@ -20,7 +21,7 @@ std::string Variant::label() const {
     return s.str();
 }
 
-Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
+Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path) {
     SceneDesc d = scene;
     d.coupling.settings.strategy = v.strategy;
     d.coupling.settings.gain = v.gain;
@@ -37,6 +38,11 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
     for (std::size_t i = 0; i < ids.size(); ++i)
         if (d.bodies[i].def.type == BodyType::Dynamic) dynamic.push_back(ids[i]);
     const std::vector<SoftBodyId> soft = w->soft().bodies();
+    std::unique_ptr<Recorder> recorder;
+    if (!record_path.empty()) {
+        recorder = std::make_unique<Recorder>(record_path, d, *w, ids);
+        recorder->write_frame(*w, 0);
+    }
 
     Recording r;
     std::vector<double> ms;
@@ -70,7 +76,9 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps) {
         }
         ms.push_back(step_ms);
         if (r.finite) sample();
+        if (recorder) recorder->write_frame(*w, std::uint64_t(s + 1));
     }
+    if (recorder) recorder->finish();
     r.ms_per_step_median = bench::median(ms);
     return r;
 }

@@ -31,8 +31,9 @@ struct Recording {
     bool finite = true;
 };
 
-/// Runs `scene` for `steps` scene steps under `v`.
-Recording run_variant(const SceneDesc& scene, const Variant& v, int steps);
+/// Runs `scene` for `steps` scene steps under `v`. With `record_path`, also writes a playback file of every
+/// scene step (tools/record.hpp; the viewer plays several side by side).
+Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path = "");
 
 /// A recording's errors against a reference recording of the same scene and steps.
 struct Errors {

@@ -1,7 +1,9 @@
-// Writes docs/record-format.md: JSON lines, a header then one line per frame.
+// Writes docs/record-format.md: a JSON header line, then one JSON line per frame or, for ".sinrec"
+// files, one block of float32 values per frame.
 #include "tools/record.hpp"
 
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -80,14 +82,33 @@ Json shape_json(const Shape& s) {
     return j;
 }
 
+// Float32 frames are little-endian on disk; every machine Sinew builds for is, and a big-endian one
+// is refused rather than writing files no viewer reads.
+bool little_endian() {
+    const std::uint32_t one = 1;
+    unsigned char b;
+    std::memcpy(&b, &one, 1);
+    return b == 1;
+}
+
 }  // namespace
 
+RecordEncoding record_encoding_for(const std::string& path) {
+    const std::string ext = ".sinrec";
+    return path.size() >= ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0
+               ? RecordEncoding::Float32
+               : RecordEncoding::JsonLines;
+}
+
 Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World& world, const std::vector<BodyId>& ids)
-    : path_(path), out_(path, std::ios::binary | std::ios::trunc), ids_(ids) {
+    : path_(path), out_(path, std::ios::binary | std::ios::trunc), ids_(ids), encoding_(record_encoding_for(path)) {
     if (!out_) throw std::runtime_error("cannot write record file " + path);
+    if (encoding_ == RecordEncoding::Float32 && !little_endian())
+        throw std::runtime_error("record file " + path + ": .sinrec frames are little-endian float32; use a .jsonl name on this machine");
     Json header;
     header["format"] = kRecordFormat;
     header["version"] = kRecordVersion;
+    header["encoding"] = encoding_ == RecordEncoding::Float32 ? "float32" : "json";
     header["scene"] = scene.name;
     header["time_step"] = tidy(world.settings().time_step);
     Json bodies = Json::array();
@@ -114,10 +135,43 @@ Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World&
                         {"triangles", std::move(tris)}});
     }
     header["particles"] = std::move(soft);
+    if (encoding_ == RecordEncoding::Float32) {
+        std::size_t n = 1 + 7 * ids_.size();
+        for (SoftBodyId id : soft_ids_) n += 3 * world.soft().body(id).p.size();
+        header["frame_floats"] = n;
+        frame_floats_ = n;
+        floats_.reserve(n);
+    }
     out_ << header.dump() << '\n';
 }
 
 void Recorder::write_frame(const World& world, std::uint64_t frame) {
+    if (encoding_ == RecordEncoding::Float32) {
+        // [time, bodies' 7 values..., particles' xyz...]: the frame index is the block's position. Non-finite
+        // values stay NaN or infinity (the viewer reports them).
+        floats_.clear();
+        floats_.push_back(float(world.time()));
+        const RigidSystem& rigid = world.rigid();
+        for (BodyId id : ids_) {
+            const Transform xf = rigid.transform(id);
+            const Real values[7] = {xf.p.x(), xf.p.y(), xf.p.z(), xf.q.w(), xf.q.x(), xf.q.y(), xf.q.z()};
+            for (Real v : values) floats_.push_back(float(v));
+        }
+        for (SoftBodyId id : soft_ids_) {
+            const Particles& p = world.soft().body(id).p;
+            for (std::size_t k = 0; k < p.size(); ++k) {
+                floats_.push_back(float(p.x[k].x()));
+                floats_.push_back(float(p.x[k].y()));
+                floats_.push_back(float(p.x[k].z()));
+            }
+        }
+        if (floats_.size() != frame_floats_)
+            throw std::runtime_error("record file " + path_ + ": frame " + std::to_string(frame) + " has " +
+                                     std::to_string(floats_.size()) + " values where the header promised " +
+                                     std::to_string(frame_floats_) + " (a soft body changed its particle count)");
+        out_.write(reinterpret_cast<const char*>(floats_.data()), std::streamsize(floats_.size() * sizeof(float)));
+        return;
+    }
     line_.clear();
     line_ += "{\"frame\":";
     line_ += std::to_string(frame);

@@ -11,13 +11,22 @@
 namespace sinew::tool {
 
 constexpr const char* kRecordFormat = "sinew-record";
-constexpr int kRecordVersion = 1;
+constexpr int kRecordVersion = 2;
+
+/// How frames are written: JSON lines (small files, readable) or raw little-endian float32 frames after the
+/// JSON header line (large runs: 28 bytes per body per frame, read by the viewer without parsing).
+enum class RecordEncoding { JsonLines, Float32 };
+
+/// The encoding a file name asks for: ".sinrec" is Float32, anything else JSON lines.
+RecordEncoding record_encoding_for(const std::string& path);
 
 class Recorder {
 public:
-    /// Opens `path` and writes the header line. Throws std::runtime_error if the file cannot be written.
+    /// Opens `path` and writes the header line, in the encoding the file name asks for
+    /// (record_encoding_for). Throws std::runtime_error if the file cannot be written.
     Recorder(const std::string& path, const SceneDesc& scene, const World& world, const std::vector<BodyId>& ids);
-    /// Appends one frame line with the current transform of every body, in header order.
+    /// Appends one frame with the current transform of every body, in header order, and every soft body's
+    /// particle positions.
     void write_frame(const World& world, std::uint64_t frame);
     /// Flushes and checks the stream; throws std::runtime_error on a write failure (disk full, ...).
     void finish();
@@ -27,6 +36,9 @@ private:
     std::ofstream out_;
     std::vector<BodyId> ids_;
     std::vector<SoftBodyId> soft_ids_;  ///< soft bodies at the start, in creation order
+    RecordEncoding encoding_ = RecordEncoding::JsonLines;
+    std::vector<float> floats_;  // one Float32 frame, reused
+    std::size_t frame_floats_ = 0;  // the header's promise for every Float32 frame
     std::string line_;  // reused for every frame, so recording allocates nothing per frame once warm
 };
 

@@ -19,6 +19,7 @@
 #include "tools/bench/bench_threads.hpp"
 #include "tools/bench/results_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/progress.hpp"
 
 namespace sinew::bench {
 
@@ -93,7 +94,8 @@ private:
 
 /// Steps every contender `steps` times, in alternating chunks of kChunk steps, timing each step with
 /// `clock`; fills each contender's run (median time, drift, stood, collapsed, finite).
-void race(std::vector<std::unique_ptr<RigidContender>>& contenders, int steps, BenchClock clock) {
+void race(std::vector<std::unique_ptr<RigidContender>>& contenders, int steps, BenchClock clock, const std::string& label) {
+    tool::Progress progress(label, steps);
     constexpr int kChunk = 20;  // long enough to keep each engine's caches warm, short next to the drift
     const std::size_t n = contenders.size();
     std::vector<DriftMeter> meters(n);
@@ -119,7 +121,9 @@ void race(std::vector<std::unique_ptr<RigidContender>>& contenders, int steps, B
                 ++k.run.steps;
             }
         }
+        progress.update(end);
     }
+    progress.finish();
     for (std::size_t c = 0; c < n; ++c) finish_run(contenders[c]->run, ms[c], meters[c]);
 }
 
@@ -270,7 +274,7 @@ int cmd_bench(const std::vector<std::string>& args) {
         if (wanted("bullet", "default")) contenders.push_back(make_bullet_contender(scene, iterations));
         std::cerr << "bench: " << name << ": " << contenders.size() << " engine settings, " << n
                   << " steps each, stepped in alternating chunks...\n";
-        race(contenders, n, clock);
+        race(contenders, n, clock, "bench " + name);
         for (const auto& c : contenders) {
             runs.push_back(c->run);
             std::cout << to_json_line(runs.back()) << std::endl;
