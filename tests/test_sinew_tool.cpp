@@ -1,5 +1,6 @@
 // The `sinew` command-line tool, run as a separate process: exit statuses, messages, the JSON line of
 // `sinew run` and the record file.
+#include <cstring>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -211,7 +212,8 @@ TEST_CASE("run --record writes a header and one line per frame", "[tool]") {
     const SceneDesc scene = parse_scene_file(kShowcase);
     const nlohmann::json header = nlohmann::json::parse(lines[0]);
     CHECK(header["format"] == "sinew-record");
-    CHECK(header["version"] == 1);
+    CHECK(header["version"] == 2);
+    CHECK(header["encoding"] == "json");
     CHECK(header["scene"] == "showcase-falling-boxes");
     CHECK(header["time_step"].get<double>() == Approx(0.01));
     REQUIRE(header["bodies"].size() == scene.bodies.size());
@@ -241,6 +243,37 @@ TEST_CASE("run --record writes a header and one line per frame", "[tool]") {
                 CHECK(t[2].get<double>() == Approx(double(p.z())).margin(1e-6));
             }
         }
+    }
+}
+
+TEST_CASE("run --record FILE.sinrec writes float32 frames that hold the JSON frames' values", "[tool]") {
+    const fs::path bin = scratch() / "showcase.sinrec", text = scratch() / "showcase-text.jsonl";
+    for (const fs::path& p : {bin, text}) {
+        const Result r = sinew_cmd("run " + quote(kShowcase) + " --steps 4 --dt 0.01 --record " + quote(p.string()));
+        INFO("stderr: " << r.err);
+        REQUIRE(r.exited);
+        REQUIRE(r.status == 0);
+    }
+    const std::string data = slurp(bin);
+    const std::size_t nl = data.find('\n');
+    REQUIRE(nl != std::string::npos);
+    const nlohmann::json header = nlohmann::json::parse(data.substr(0, nl));
+    CHECK(header["version"] == 2);
+    CHECK(header["encoding"] == "float32");
+    const std::size_t n = header["frame_floats"].get<std::size_t>();
+    REQUIRE(n == 1 + 7 * header["bodies"].size());  // time, then 7 values per body; no soft body here
+    REQUIRE(data.size() == nl + 1 + 5 * n * sizeof(float));  // frames 0..4, nothing else
+    // Every value equals the JSON lines file's, which writes the same floats as shortest decimals.
+    const std::vector<std::string> lines = lines_of(slurp(text));
+    REQUIRE(lines.size() == 1 + 5);
+    for (std::size_t f = 0; f < 5; ++f) {
+        INFO("frame " << f);
+        std::vector<float> v(n);
+        std::memcpy(v.data(), data.data() + nl + 1 + f * n * sizeof(float), n * sizeof(float));
+        const nlohmann::json frame = nlohmann::json::parse(lines[1 + f]);
+        CHECK(v[0] == float(frame["time"].get<double>()));
+        for (std::size_t b = 0; b < header["bodies"].size(); ++b)
+            for (std::size_t k = 0; k < 7; ++k) CHECK(v[1 + 7 * b + k] == frame["bodies"][b][k].get<float>());
     }
 }
 

@@ -293,6 +293,8 @@ function urlSource(url) {
 // --- test hooks (tools/viewer/test/browser_test.mjs) ---------------------------------------------------------
 api.stats = () => state.views.map((v) => v.stats());
 api.setTime = (t) => { state.playing = false; updatePlayButton(); setTime(t); render(); };
+/// Places every view at frame k of the first recording without drawing (for timing the per-frame update).
+api.setFrameOnly = (k) => { for (const v of state.views) v.setFrame(frameAtTime(v.rec, frameTime(state.views[0].rec, k))); };
 api.frames = () => state.views.map((v) => v.frame);
 api.setFrame = (k) => api.setTime(frameTime(state.views[0].rec, k));
 /// Where body b of view i is drawn, in page pixels.
