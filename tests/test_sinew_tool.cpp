@@ -277,6 +277,63 @@ TEST_CASE("run --record FILE.sinrec writes float32 frames that hold the JSON fra
     }
 }
 
+TEST_CASE("run --record-contacts writes the contacts of every frame and the header lists the joints", "[tool]") {
+    // A box resting on the ground (four contact points, normals up) and a ball joint pinning a sphere to
+    // a static post, in both encodings.
+    const fs::path scene = scratch() / "overlay.json";
+    {
+        std::ofstream out(scene);
+        out << R"({"format":"sinew-scene","version":1,"name":"overlay","settings":{"steps":30},
+          "bodies":[{"name":"ground","type":"static","shape":{"type":"box","half_extents":[5,0.5,5]},"position":[0,-0.5,0]},
+                    {"name":"post","type":"static","shape":{"type":"box","half_extents":[0.1,1,0.1]},"position":[-2,1,0]},
+                    {"name":"bob","shape":{"type":"sphere","radius":0.1},"position":[-2,1.5,0]},
+                    {"name":"crate","shape":{"type":"box","half_extents":[0.25,0.25,0.25]},"position":[1,0.25,0]}],
+          "joints":[{"type":"ball","body_a":"bob","body_b":"post","anchor_a":[0,0.5,0]}]})";
+    }
+    const fs::path text = scratch() / "overlay.jsonl", bin = scratch() / "overlay.sinrec";
+    for (const fs::path& p : {text, bin}) {
+        const Result r = sinew_cmd("run " + quote(scene.string()) + " --record " + quote(p.string()) + " --record-contacts");
+        INFO("stderr: " << r.err);
+        REQUIRE(r.exited);
+        REQUIRE(r.status == 0);
+    }
+    const std::vector<std::string> lines = lines_of(slurp(text));
+    REQUIRE(lines.size() == 1 + 31);
+    const nlohmann::json header = nlohmann::json::parse(lines[0]);
+    CHECK(header["contacts"] == true);
+    REQUIRE(header["joints"].size() == 1);
+    CHECK(header["joints"][0]["type"] == "ball");
+    CHECK(header["joints"][0]["a"] == 2);  // header indices: bob, post
+    CHECK(header["joints"][0]["b"] == 1);
+    CHECK(header["joints"][0]["anchor_a"][1].get<double>() == Approx(0.5));
+    // The crate rests on the ground: at least its four corners touch, with the normal along +-y.
+    const nlohmann::json last = nlohmann::json::parse(lines.back());
+    const auto& c = last["contacts"];
+    REQUIRE(c.size() % 6 == 0);
+    CHECK(c.size() / 6 >= 4);
+    std::size_t on_ground = 0;
+    for (std::size_t k = 0; k < c.size(); k += 6)
+        if (std::abs(c[k + 1].get<double>()) < 0.01 && std::abs(std::abs(c[k + 4].get<double>()) - 1) < 1e-4) ++on_ground;
+    CHECK(on_ground >= 4);
+    // The float32 file holds the same contacts after each frame's fixed part: walk every frame.
+    const std::string data = slurp(bin);
+    const std::size_t nl = data.find('\n');
+    const nlohmann::json bh = nlohmann::json::parse(data.substr(0, nl));
+    const std::size_t n = bh["frame_floats"].get<std::size_t>();
+    std::size_t at = nl + 1, frames = 0, last_count = 0;
+    while (at < data.size()) {
+        float count = 0;
+        REQUIRE(at + (n + 1) * sizeof(float) <= data.size());
+        std::memcpy(&count, data.data() + at + n * sizeof(float), sizeof(float));
+        last_count = std::size_t(count);
+        at += (n + 1 + 6 * last_count) * sizeof(float);
+        ++frames;
+    }
+    CHECK(at == data.size());
+    CHECK(frames == 31);
+    CHECK(last_count == c.size() / 6);
+}
+
 TEST_CASE("run --record writes soft-body particles: the cloth-drop scene", "[tool][soft]") {
     const std::string cloth_drop = kSource + "/demos/scenes/cloth-drop.json";
     const fs::path rec = scratch() / "cloth-drop.jsonl";

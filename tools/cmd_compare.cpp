@@ -365,7 +365,8 @@ extern const Command compare_command = {
     "  --chart FILE.png       error against time, Pareto front marked (gnuplot); --chart-dir DIR for --all\n"
     "  --markdown FILE.md     rewrite the compare section of FILE (docs/RESULTS.md)\n"
     "  --table                print each scene's table (markdown) instead of the JSON lines\n"
-    "  --record-dir DIR       write each run's playback file to DIR/SCENE-VARIANT.jsonl (the reference's too),\n"
+    "  --record-dir DIR       write each run's playback file, contacts included, to DIR/SCENE-VARIANT.jsonl\n"
+    "                         (the reference's too),\n"
     "                         to watch side by side: scripts/dev view DIR/SCENE-*.jsonl\n"
     "Progress is shown on stderr when it is a terminal and CI is not set.\n"
     "Exit status: 0, 1 on a bad scene or output, 2 on bad arguments, 3 if a run was not finite.\n"};

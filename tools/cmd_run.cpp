@@ -25,6 +25,7 @@ struct RunOptions {
     std::optional<long long> steps;
     std::optional<double> dt;
     std::string record;
+    bool record_contacts = false;
     std::string save;
     std::optional<CouplingStrategy> coupling;
     int workers = 1;
@@ -43,6 +44,8 @@ RunOptions parse_options(const std::vector<std::string>& args) {
         } else if (is_option(a, "--record")) {
             o.record = option_value(args, i, "--record");
             if (o.record.empty()) throw UsageError("--record needs a file name");
+        } else if (a == "--record-contacts") {
+            o.record_contacts = true;
         } else if (is_option(a, "--save")) {
             o.save = option_value(args, i, "--save");
             if (o.save.empty()) throw UsageError("--save needs a file name");
@@ -61,6 +64,7 @@ RunOptions parse_options(const std::vector<std::string>& args) {
         }
     }
     if (o.scene.empty()) throw UsageError("no scene file given");
+    if (o.record_contacts && o.record.empty()) throw UsageError("--record-contacts needs --record FILE");
     return o;
 }
 
@@ -120,7 +124,7 @@ int run(const std::vector<std::string>& args) {
     RigidSystem& rigid = world->rigid();
     std::unique_ptr<Recorder> recorder;
     if (!opt.record.empty()) {
-        recorder = std::make_unique<Recorder>(opt.record, scene, *world, ids);
+        recorder = std::make_unique<Recorder>(opt.record, scene, *world, ids, opt.record_contacts);
         recorder->write_frame(*world, 0);
     }
 
@@ -182,7 +186,7 @@ int run(const std::vector<std::string>& args) {
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
     "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--workers N] [--record FILE]\n"
-    "                [--save FILE]\n"
+    "                [--record-contacts] [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
@@ -203,6 +207,7 @@ const Command run_command = {
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"
     "                  (docs/record-format.md): JSON lines, or float32 frames if FILE ends in .sinrec\n"
     "                  (compact, for large runs); watch it with: scripts/dev view FILE\n"
+    "  --record-contacts  also record every frame's contact points and normals (the viewer's overlay)\n"
     "  --save FILE     write the world at the end as a scene file that reproduces it (bodies, joints,\n"
     "                  soft bodies as their particles, velocities; docs/scene-format.md)\n"
     "\n"

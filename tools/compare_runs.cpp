@@ -40,7 +40,7 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const
     const std::vector<SoftBodyId> soft = w->soft().bodies();
     std::unique_ptr<Recorder> recorder;
     if (!record_path.empty()) {
-        recorder = std::make_unique<Recorder>(record_path, d, *w, ids);
+        recorder = std::make_unique<Recorder>(record_path, d, *w, ids, /*contacts=*/true);
         recorder->write_frame(*w, 0);
     }
 

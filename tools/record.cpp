@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "rigid/joint_set.hpp"
+
 namespace sinew::tool {
 
 namespace {
@@ -100,8 +102,10 @@ RecordEncoding record_encoding_for(const std::string& path) {
                : RecordEncoding::JsonLines;
 }
 
-Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World& world, const std::vector<BodyId>& ids)
-    : path_(path), out_(path, std::ios::binary | std::ios::trunc), ids_(ids), encoding_(record_encoding_for(path)) {
+Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World& world, const std::vector<BodyId>& ids,
+                   bool contacts)
+    : path_(path), out_(path, std::ios::binary | std::ios::trunc), ids_(ids), encoding_(record_encoding_for(path)),
+      contacts_(contacts) {
     if (!out_) throw std::runtime_error("cannot write record file " + path);
     if (encoding_ == RecordEncoding::Float32 && !little_endian())
         throw std::runtime_error("record file " + path + ": .sinrec frames are little-endian float32; use a .jsonl name on this machine");
@@ -135,6 +139,21 @@ Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World&
                         {"triangles", std::move(tris)}});
     }
     header["particles"] = std::move(soft);
+    // Joints: the bodies by header index (-1: a body the header does not list, such as a soft body's
+    // proxy) and the anchors in each body's frame, so a viewer draws them from the frames' transforms.
+    Json joints = Json::array();
+    const auto header_index = [&](BodyId b) -> long long {
+        for (std::size_t i = 0; i < ids_.size(); ++i)
+            if (ids_[i].index == b.index && ids_[i].generation == b.generation) return (long long)i;
+        return -1;
+    };
+    for (JointId id : rigid.joints().ids()) {
+        const JointDef& d = rigid.joints().def(id);
+        joints.push_back({{"type", joint_type_name(d.type)}, {"a", header_index(d.body_a)}, {"b", header_index(d.body_b)},
+                          {"anchor_a", vec_json(d.local_anchor_a)}, {"anchor_b", vec_json(d.local_anchor_b)}});
+    }
+    header["joints"] = std::move(joints);
+    header["contacts"] = contacts_;
     if (encoding_ == RecordEncoding::Float32) {
         std::size_t n = 1 + 7 * ids_.size();
         for (SoftBodyId id : soft_ids_) n += 3 * world.soft().body(id).p.size();
@@ -145,7 +164,22 @@ Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World&
     out_ << header.dump() << '\n';
 }
 
+// Contact points touching or within a millimetre of touching: the soft step's speculative points further
+// apart are not contacts a viewer should show.
+void Recorder::gather_contacts(const World& world) {
+    contact_values_.clear();
+    const auto add = [&](const Vec3& p, const Vec3& n) {
+        const Real v[6] = {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()};
+        for (Real x : v) contact_values_.push_back(float(x));
+    };
+    for (const ContactManifold& m : world.rigid().contacts())
+        for (int i = 0; i < m.manifold.count; ++i)
+            if (m.manifold.points[i].depth > Real(-0.001)) add(m.manifold.points[i].position, m.manifold.normal);
+    for (const ParticleContact& c : world.soft().contacts()) add(c.point, c.normal);
+}
+
 void Recorder::write_frame(const World& world, std::uint64_t frame) {
+    if (contacts_) gather_contacts(world);
     if (encoding_ == RecordEncoding::Float32) {
         // [time, bodies' 7 values..., particles' xyz...]: the frame index is the block's position. Non-finite
         // values stay NaN or infinity (the viewer reports them).
@@ -169,6 +203,11 @@ void Recorder::write_frame(const World& world, std::uint64_t frame) {
             throw std::runtime_error("record file " + path_ + ": frame " + std::to_string(frame) + " has " +
                                      std::to_string(floats_.size()) + " values where the header promised " +
                                      std::to_string(frame_floats_) + " (a soft body changed its particle count)");
+        if (contacts_) {
+            // Then the frame's contacts: their count (a float32, exact to 2^24), then 6 values each.
+            floats_.push_back(float(contact_values_.size() / 6));
+            floats_.insert(floats_.end(), contact_values_.begin(), contact_values_.end());
+        }
         out_.write(reinterpret_cast<const char*>(floats_.data()), std::streamsize(floats_.size() * sizeof(float)));
         return;
     }
@@ -205,7 +244,16 @@ void Recorder::write_frame(const World& world, std::uint64_t frame) {
         }
         line_ += ']';
     }
-    line_ += "]}\n";
+    line_ += ']';
+    if (contacts_) {
+        line_ += ",\"contacts\":[";
+        for (std::size_t k = 0; k < contact_values_.size(); ++k) {
+            if (k) line_ += ',';
+            append_number(line_, contact_values_[k]);
+        }
+        line_ += ']';
+    }
+    line_ += "}\n";
     out_ << line_;
 }
 

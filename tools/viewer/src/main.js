@@ -125,6 +125,7 @@ function tick(now) {
 
 function fitCamera() {
   const s = state.views[0].bounds(0);
+  for (const v of state.views) { v.normalLength = 0.04 * s.radius; v.updateOverlays(); }
   controls.target.copy(s.center);
   const d = s.radius * 2.2;
   camera.position.set(s.center.x + 0.55 * d, s.center.y + 0.45 * d, s.center.z + 0.75 * d);
@@ -231,6 +232,9 @@ function start(recs) {
     showWarnings(['these recordings hold different bodies; the distance chart is empty']);
   for (const r of recs) showWarnings(r.warnings);
   $('series').disabled = recs.length < 2;
+  $('contacts').disabled = !recs.some((r) => r.contacts);
+  $('joints').disabled = !recs.some((r) => (r.header.joints || []).length);
+  overlays();
   $('series').value = recs.length > 1 ? 'distance' : 'speed';
   state.series = $('series').value;
   $('empty').hidden = true;
@@ -268,6 +272,9 @@ window.addEventListener('resize', resize);
 
 $('speed').onchange = (e) => { state.speed = parseFloat(e.target.value); };
 $('loop').onchange = (e) => { state.loop = e.target.checked; };
+const overlays = () => { for (const v of state.views) v.setOverlays($('contacts').checked, $('joints').checked); state.dirty = true; };
+$('contacts').onchange = overlays;
+$('joints').onchange = overlays;
 $('fit').onclick = () => { if (state.views.length) { fitCamera(); state.dirty = true; } };
 
 function fileSources(files) {

@@ -45,6 +45,15 @@ function checkHeader(name, h) {
     if (!b || typeof b.name !== 'string') fail(name, `${where}: bodies[${i}]`, 'needs a "name"');
     checkShape(name, `${where}: body "${b.name}"`, b.shape);
   });
+  if (h.joints !== undefined) {
+    if (!Array.isArray(h.joints)) fail(name, where, '"joints" must be an array');
+    const vec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === 'number');
+    h.joints.forEach((j, i) => {
+      const end = (k) => Number.isInteger(k) && k >= -1 && k < h.bodies.length;
+      if (!j || !end(j.a) || !end(j.b) || !vec(j.anchor_a) || !vec(j.anchor_b))
+        fail(name, `${where}: joints[${i}]`, `needs "a" and "b" (body indices, -1 for none) and "anchor_a", "anchor_b" [x,y,z]`);
+    });
+  }
   h.particles.forEach((p, i) => {
     if (!p || !Number.isInteger(p.count) || p.count < 0) fail(name, `${where}: particles[${i}]`, 'needs an integer "count"');
     if (!Array.isArray(p.triangles)) fail(name, `${where}: particles[${i}]`, 'needs "triangles" (may be empty)');
@@ -59,7 +68,8 @@ export function frameFloatsOf(h) {
   return 1 + 7 * h.bodies.length + 3 * h.particles.reduce((n, p) => n + p.count, 0);
 }
 
-/// Parses `buffer` (ArrayBuffer) of the file `name`. Returns {name, header, frames, frameFloats, values, warnings}.
+/// Parses `buffer` (ArrayBuffer) of the file `name`. Returns {name, header, frames, frameFloats, values,
+/// contacts (null, or per frame a Float32Array of x y z nx ny nz per contact), warnings}.
 export function parseRecording(name, buffer) {
   const bytes = new Uint8Array(buffer);
   if (bytes.length === 0) fail(name, 'line 1', 'the file is empty');
@@ -75,17 +85,41 @@ export function parseRecording(name, buffer) {
   const frameFloats = frameFloatsOf(header);
   const warnings = [];
   let values, frames;
+  const contacts = header.contacts === true ? [] : null; // per frame: Float32Array of x y z nx ny nz per point
   if (header.encoding === 'float32') {
     if (header.frame_floats !== frameFloats)
       fail(name, 'line 1 (header)', `"frame_floats" is ${header.frame_floats}, but the bodies and particles need ${frameFloats}`);
     const start = headerEnd + 1;
-    const bytesPerFrame = 4 * frameFloats;
     const avail = Math.max(0, bytes.length - start);
-    frames = Math.floor(avail / bytesPerFrame);
-    if (avail % bytesPerFrame !== 0)
-      warnings.push(`${name}: truncated: the file ends ${avail % bytesPerFrame} bytes into frame ${frames} (byte ${bytes.length}); that frame is dropped`);
-    // One copy to an aligned buffer: the header's length puts the frames at any byte offset.
-    values = new Float32Array(bytes.slice(start, start + frames * bytesPerFrame).buffer);
+    if (!contacts) {
+      const bytesPerFrame = 4 * frameFloats;
+      frames = Math.floor(avail / bytesPerFrame);
+      if (avail % bytesPerFrame !== 0)
+        warnings.push(`${name}: truncated: the file ends ${avail % bytesPerFrame} bytes into frame ${frames} (byte ${bytes.length}); that frame is dropped`);
+      // One copy to an aligned buffer: the header's length puts the frames at any byte offset.
+      values = new Float32Array(bytes.slice(start, start + frames * bytesPerFrame).buffer);
+    } else {
+      // Frames of different lengths: the fixed part, a contact count, then 6 values per contact.
+      const all = new Float32Array(bytes.slice(start, start + avail - (avail % 4)).buffer);
+      const fixed = [];
+      let at = 0;
+      for (;;) {
+        if (at === all.length && avail % 4 === 0) break;
+        const count = all[at + frameFloats];
+        const size = frameFloats + 1 + 6 * count;
+        if (at + frameFloats + 1 > all.length || !Number.isInteger(count) || count < 0 || at + size > all.length) {
+          if (!Number.isInteger(count) && at + frameFloats + 1 <= all.length) fail(name, `frame ${fixed.length} (byte ${start + 4 * (at + frameFloats)})`, `contact count ${count} is not a whole number`);
+          warnings.push(`${name}: truncated: the file ends inside frame ${fixed.length} (byte ${bytes.length}); that frame is dropped`);
+          break;
+        }
+        fixed.push(all.subarray(at, at + frameFloats));
+        contacts.push(all.subarray(at + frameFloats + 1, at + size));
+        at += size;
+      }
+      frames = fixed.length;
+      values = new Float32Array(frames * frameFloats);
+      fixed.forEach((f, k) => values.set(f, k * frameFloats));
+    }
   } else if (header.encoding === undefined || header.encoding === 'json') {
     const text = new TextDecoder('utf-8').decode(bytes.subarray(headerEnd + 1));
     const lines = text.split('\n');
@@ -110,6 +144,11 @@ export function parseRecording(name, buffer) {
         fail(name, `line ${lineNo}`, `"bodies" has ${Array.isArray(f.bodies) ? f.bodies.length : 'no'} entries, the header names ${header.bodies.length}`);
       if (!Array.isArray(f.particles) || f.particles.length !== header.particles.length)
         fail(name, `line ${lineNo}`, `"particles" has ${Array.isArray(f.particles) ? f.particles.length : 'no'} entries, the header names ${header.particles.length}`);
+      if (contacts) {
+        if (!Array.isArray(f.contacts) || f.contacts.length % 6 !== 0)
+          fail(name, `line ${lineNo}`, '"contacts" must hold 6 numbers per contact (the header says frames carry contacts)');
+        contacts.push(Float32Array.from(f.contacts, (v) => (v === null ? NaN : v)));
+      }
       values[base] = f.time;
       let k = base + 1;
       f.bodies.forEach((b, j) => {
@@ -133,7 +172,8 @@ export function parseRecording(name, buffer) {
     if (!Number.isFinite(t)) { warnings.push(`${name}: frame ${f} has a non-finite time; playback stops before it`); frames = f; break; }
   }
   if (frames === 0) fail(name, 'frames', 'no frame has a finite time');
-  return { name, header, frames, frameFloats, values, warnings };
+  if (contacts) contacts.length = frames;
+  return { name, header, frames, frameFloats, values, contacts, warnings };
 }
 
 /// The frame whose time is the latest at or before `t` (frames are in time order).

@@ -31,7 +31,83 @@ export class RecordingView {
     this.quat = new THREE.Quaternion();
     this.one = new THREE.Vector3(1, 1, 1);
     this.frame = -1;
+    this.showContacts = true;
+    this.showJoints = true;
+    this.normalLength = 0.1; // m, the drawn length of a contact normal (main.js scales it to the scene)
     this.build();
+    this.buildOverlays();
+  }
+
+  // Contacts (a red segment along each normal and a point) and joints (a line between the two world
+  // anchors, points at both), drawn over the bodies.
+  buildOverlays() {
+    const h = this.rec.header;
+    const overlay = (kind, colour) => {
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
+      const m = kind === 'lines' ? new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: colour, depthTest: false }))
+        : new THREE.Points(g, new THREE.PointsMaterial({ color: colour, size: 5, sizeAttenuation: false, depthTest: false }));
+      m.frustumCulled = false;
+      m.renderOrder = 10;
+      this.scene.add(m);
+      return m;
+    };
+    this.contactLines = this.rec.contacts ? overlay('lines', 0xff4040) : null;
+    this.contactPoints = this.rec.contacts ? overlay('points', 0xffd040) : null;
+    this.joints = (h.joints || []).filter((j) => j.a >= 0 || j.b >= 0);
+    this.jointLines = this.joints.length ? overlay('lines', 0x80ff80) : null;
+    this.jointPoints = this.joints.length ? overlay('points', 0x80ff80) : null;
+  }
+
+  static setPositions(object, array, count) {
+    const g = object.geometry;
+    let attr = g.getAttribute('position');
+    if (attr.array.length < array.length) {
+      attr = new THREE.BufferAttribute(new Float32Array(Math.max(array.length, 2 * attr.array.length)), 3);
+      attr.setUsage(THREE.DynamicDrawUsage);
+      g.setAttribute('position', attr);
+    }
+    attr.array.set(array);
+    attr.needsUpdate = true;
+    g.setDrawRange(0, count);
+  }
+
+  updateOverlays() {
+    const k = this.frame;
+    if (this.contactLines) {
+      const c = this.rec.contacts[k] || new Float32Array(0), n = c.length / 6, L = this.normalLength;
+      const lines = new Float32Array(6 * n), points = new Float32Array(3 * n);
+      for (let i = 0; i < n; ++i) {
+        const o = 6 * i;
+        lines.set([c[o], c[o + 1], c[o + 2], c[o] + L * c[o + 3], c[o + 1] + L * c[o + 4], c[o + 2] + L * c[o + 5]], 6 * i);
+        points.set([c[o], c[o + 1], c[o + 2]], 3 * i);
+      }
+      RecordingView.setPositions(this.contactLines, lines, this.showContacts ? 2 * n : 0);
+      RecordingView.setPositions(this.contactPoints, points, this.showContacts ? n : 0);
+    }
+    if (this.jointLines) {
+      const lines = [], points = [];
+      const world = (b, anchor) => {
+        const o = k * this.rec.frameFloats + 1 + 7 * b, v = this.rec.values;
+        this.pos.set(anchor[0], anchor[1], anchor[2]);
+        this.quat.set(v[o + 4], v[o + 5], v[o + 6], v[o + 3]);
+        return this.pos.applyQuaternion(this.quat).add(new THREE.Vector3(v[o], v[o + 1], v[o + 2])).toArray();
+      };
+      for (const j of this.joints) {
+        const a = j.a >= 0 ? world(j.a, j.anchor_a) : null, b = j.b >= 0 ? world(j.b, j.anchor_b) : null;
+        if (a && b) lines.push(...a, ...b);
+        for (const p of [a, b]) if (p) points.push(...p);
+      }
+      RecordingView.setPositions(this.jointLines, Float32Array.from(lines), this.showJoints ? lines.length / 3 : 0);
+      RecordingView.setPositions(this.jointPoints, Float32Array.from(points), this.showJoints ? points.length / 3 : 0);
+    }
+  }
+
+  /// Shows or hides the overlays (and redraws them for the current frame).
+  setOverlays(contacts, joints) {
+    this.showContacts = contacts;
+    this.showJoints = joints;
+    if (this.frame >= 0) this.updateOverlays();
   }
 
   build() {
@@ -115,6 +191,7 @@ export class RecordingView {
         s.beads.instanceMatrix.needsUpdate = true;
       }
     }
+    this.updateOverlays();
   }
 
   /// Body k's position in the current frame.
@@ -163,6 +240,8 @@ export class RecordingView {
     const counted = new Set();
     for (const g of this.groups) for (const b of g.bodies) counted.add(b);
     bodies = counted.size;
-    return { bodies, softBodies: this.softs.length, drawCalls: this.groups.length + this.softs.length };
+    const drawn = (o) => (o ? o.geometry.drawRange.count : 0);
+    return { bodies, softBodies: this.softs.length, drawCalls: this.groups.length + this.softs.length,
+      contacts: drawn(this.contactPoints), jointLines: drawn(this.jointLines) / 2, jointAnchors: drawn(this.jointPoints) };
   }
 }

@@ -36,6 +36,22 @@ const boxes = record('showcase-falling-boxes.json', 'boxes.jsonl', ['--steps', '
 const boxesFine = record('showcase-falling-boxes.json', 'boxes-h2.jsonl', ['--steps', '180', '--dt', String(1 / 120)]);
 const boxesBin = record('showcase-falling-boxes.json', 'boxes.sinrec', ['--steps', '90']);
 const cloth = record('showcase-cloth.json', 'cloth.sinrec', ['--steps', '120']);
+// A chain of three capsules on ball joints from a post, and a crate resting on the ground: joints and
+// contacts for the overlays.
+const chainScene = path.join(tmp, 'chain.json');
+const link = (i) => ({ name: `link-${i}`, shape: { type: 'capsule', radius: 0.08, half_height: 0.2 }, position: [0.35 + 0.6 * i, 3, 0],
+  rotation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] });
+fs.writeFileSync(chainScene, JSON.stringify({ format: 'sinew-scene', version: 1, name: 'chain', settings: { steps: 60 },
+  bodies: [{ name: 'ground', type: 'static', shape: { type: 'box', half_extents: [5, 0.5, 5] }, position: [0, -0.5, 0] },
+    { name: 'post', type: 'static', shape: { type: 'box', half_extents: [0.1, 1.5, 0.1] }, position: [0, 1.5, 0] },
+    link(0), link(1), link(2),
+    { name: 'crate', shape: { type: 'box', half_extents: [0.25, 0.25, 0.25] }, position: [1.5, 0.25, 0.8] }],
+  joints: [{ type: 'ball', body_a: 'link-0', body_b: 'post', anchor_a: [0, 0.3, 0] },
+    { type: 'ball', body_a: 'link-1', body_b: 'link-0', anchor_a: [0, 0.3, 0] },
+    { type: 'ball', body_a: 'link-2', body_b: 'link-1', anchor_a: [0, 0.3, 0] }] }));
+const chainBin = path.join(tmp, 'chain.sinrec'), chainJson = path.join(tmp, 'chain.jsonl');
+for (const f of [chainBin, chainJson])
+  execFileSync(sinew, ['run', chainScene, '--record', f, '--record-contacts'], { stdio: ['ignore', 'ignore', 'inherit'] });
 const header = JSON.parse(fs.readFileSync(boxes, 'utf8').split('\n')[0]);
 const lines = fs.readFileSync(boxes, 'utf8').split('\n');
 const bad = {
@@ -43,6 +59,7 @@ const bad = {
   badFrame: path.join(tmp, 'bad-frame.jsonl'),
   truncated: path.join(tmp, 'truncated.sinrec'),
   truncatedJson: path.join(tmp, 'truncated.jsonl'),
+  truncatedContacts: path.join(tmp, 'truncated-contacts.sinrec'),
 };
 fs.writeFileSync(bad.notRecord, '{"hello": "world"}\n');
 { // line 3 (frame 1): the first body loses a number
@@ -55,6 +72,8 @@ fs.writeFileSync(bad.notRecord, '{"hello": "world"}\n');
   fs.writeFileSync(bad.truncated, b.subarray(0, b.length - 100));
   const t = fs.readFileSync(boxes, 'utf8');
   fs.writeFileSync(bad.truncatedJson, t.slice(0, t.length - 200));
+  const c = fs.readFileSync(chainBin); // frames of varying length (contacts): cut inside the last one
+  fs.writeFileSync(bad.truncatedContacts, c.subarray(0, c.length - 10));
 }
 
 // --- the browser -----------------------------------------------------------------------------------------
@@ -157,6 +176,18 @@ try {
     check(blue > 2000, `cloth.sinrec frame 100: the soft surfaces cover ${blue} blue pixels`);
     await close(o);
   }
+  for (const file of [chainBin, chainJson]) { // overlays: the crate's four contact points, three joints' six anchors
+    const o = await open([file]);
+    await o.page.evaluate(() => window.sinewViewer.setFrame(60));
+    const s = await state(o.page);
+    check(!s.error && s.stats[0].contacts >= 4 && s.stats[0].jointAnchors === 6 && s.stats[0].jointLines === 3,
+      `${path.basename(file)}: ${s.stats[0] && s.stats[0].contacts} contact points (at least the crate's 4) and ${s.stats[0] && s.stats[0].jointAnchors} joint anchors (6) drawn`);
+    await o.page.locator('#contacts').uncheck();
+    await o.page.locator('#joints').uncheck();
+    const hidden = (await state(o.page)).stats[0];
+    check(hidden.contacts === 0 && hidden.jointAnchors === 0, `${path.basename(file)}: the contacts and joints boxes hide the overlays`);
+    await close(o);
+  }
   // Malformed and truncated files: a readable message in the page, naming the file and the line.
   for (const [file, pattern, what] of [[bad.notRecord, /not-a-record\.jsonl: line 1 .*not a sinew-record file/, 'a JSON file that is not a recording'],
     [bad.badFrame, /bad-frame\.jsonl: line 3: body 0 \("ground"\) needs 7 numbers/, 'a frame with a body of 6 numbers']]) {
@@ -165,7 +196,7 @@ try {
     check(pattern.test(shown), `${what}: the page says "${shown}"`);
     await close(o);
   }
-  for (const [file, frames] of [[bad.truncated, 90], [bad.truncatedJson, 90]]) {
+  for (const [file, frames] of [[bad.truncated, 90], [bad.truncatedJson, 90], [bad.truncatedContacts, 60]]) {
     const o = await open([file]);
     const s = await state(o.page);
     const shown = await o.page.locator('#warnings').isVisible() ? await o.page.locator('#warnings').textContent() : '';
