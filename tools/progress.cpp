@@ -38,8 +38,9 @@ void Progress::update(long long done) {
     char line[320];
     if (rate > 0 && total_ > 0 && done > 0) {
         const double left = double(total_ - done) / rate;
-        std::snprintf(line, sizeof line, "\r\033[K%s: %lld/%lld %s (%.0f%%), %.3g %s/s, %.0f s left", what.c_str(), done,
-                      total_, unit_.c_str(), 100.0 * double(done) / double(total_), rate, unit_.c_str(), left);
+        std::snprintf(line, sizeof line, "\r\033[K%s: %lld/%lld %s (%.0f%%), %.*f %s/s, %.0f s left", what.c_str(), done,
+                      total_, unit_.c_str(), 100.0 * double(done) / double(total_), rate >= 100 ? 0 : rate >= 10 ? 1 : 2,
+                      rate, unit_.c_str(), left);
     } else {
         std::snprintf(line, sizeof line, "\r\033[K%s: %lld/%lld %s", what.c_str(), done, total_, unit_.c_str());
     }
