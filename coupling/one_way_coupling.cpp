@@ -135,6 +135,7 @@ void OneWayCoupling::refresh_colliders(Real h) {
             c.restitution = rigid_.slot_material(slot).restitution;
             c.owner = slot;
             c.dynamic = rigid_.slot_type(slot) == BodyType::Dynamic ? 1 : 0;
+            c.filter = rigid_.slot_filter(slot);
             colliders.push_back(c);
         });
     }

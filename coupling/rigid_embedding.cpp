@@ -93,7 +93,12 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
         const bool want = wanted(s);
         const bool have = !px.body.is_null() && rigid_.valid(px.body) && same_body &&
                           px.anchored == anchored(soft_.slot_body(s));
-        if (have && want) continue;
+        if (have && want) {
+            // The proxy collides as its soft body does: a filter changed since follows it.
+            const CollisionFilter& f = soft_.slot_body(s).def.filter;
+            if (rigid_.filter(px.body) != f) rigid_.set_filter(px.body, f);
+            continue;
+        }
         if (!px.body.is_null() && rigid_.valid(px.body)) rigid_.destroy_body(px.body);
         if (proxy_slot(px.body) == s) soft_slot_of_rigid_[px.body.index] = kNoSoft;
         if (alive && same_body) {
@@ -128,6 +133,7 @@ BodyId RigidEmbedding::create_proxy(std::uint32_t slot) {
     // the nodes take their gravity in their own step, so the rigid system's part is not given back.
     def.gravity_scale = b.def.gravity_scale;
     def.allow_sleep = b.def.allow_sleep;  // the proxy's island decides; the soft body follows it
+    def.filter = b.def.filter;
     px.body = rigid_.create_body(def);
     if (soft_slot_of_rigid_.size() <= px.body.index) soft_slot_of_rigid_.resize(px.body.index + 1, kNoSoft);
     soft_slot_of_rigid_[px.body.index] = slot;

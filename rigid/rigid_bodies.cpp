@@ -69,6 +69,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         type_.emplace_back();
         shape_.emplace_back();
         material_.emplace_back();
+        filter_.emplace_back();
         mass_.push_back(0);
         body_inv_mass_.push_back(0);
         inv_inertia_local_.emplace_back();
@@ -99,6 +100,8 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     type_[slot] = def.type;
     shape_[slot] = def.shape;
     material_[slot] = def.material;
+    filter_[slot] = def.filter;
+    ignored_changed_ = true;  // the pair list is rebuilt with this body's filter
     mass_[slot] = dynamic ? mp.mass : 0;
     body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
     inv_inertia_local_[slot] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
@@ -335,6 +338,14 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
     material_[id.index].restitution = m.restitution;
 }
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
+const CollisionFilter& RigidSystem::filter(BodyId id) const { check(id, "filter"); return filter_[id.index]; }
+void RigidSystem::set_filter(BodyId id, const CollisionFilter& f) {
+    check(id, "set_filter");
+    if (filter_[id.index] == f) return;
+    filter_[id.index] = f;
+    ignored_changed_ = true;  // the broad phase rebuilds its pair list, so excluded pairs drop their contacts
+    if (type_[id.index] != BodyType::Static) wake(id);
+}
 int RigidSystem::last_solve_blocks() const { return solver_ ? solver_->last_solve_blocks() : 0; }
 
 std::size_t RigidSystem::awake_count() const {

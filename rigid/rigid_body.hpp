@@ -3,6 +3,7 @@
 
 #include <cstdint>
 
+#include "engine/core/collision_filter.hpp"
 #include "engine/core/math.hpp"
 #include "engine/core/shape.hpp"
 
@@ -50,6 +51,7 @@ struct BodyDef {
     Real angular_damping = 0;        ///< 1/s
     Real gravity_scale = 1;
     bool allow_sleep = true;
+    CollisionFilter filter;          ///< which bodies this one may touch (engine/core/collision_filter.hpp)
     std::uint64_t user_data = 0;
 };
 

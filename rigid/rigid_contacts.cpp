@@ -41,6 +41,7 @@ void RigidSystem::detect_collisions(Real h) {
             if (a > b) std::swap(a, b);
             if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
             if (joints_->filters_pair(a, b)) continue;
+            if (!should_collide(filter_[a], filter_[b])) continue;
             if (!ignored_pairs_.empty() && std::binary_search(ignored_pairs_.begin(), ignored_pairs_.end(), pair_key(a, b)))
                 continue;
             pair_keys_.push_back(pair_key(a, b));

@@ -131,6 +131,11 @@ public:
     /// Bodies a and b never collide while `ignore` holds (a soft body's proxy and the bodies the soft body
     /// is attached to). Forgotten when either body is destroyed. Throws RigidError for a bad id.
     void ignore_pair(BodyId a, BodyId b, bool ignore);
+    const CollisionFilter& filter(BodyId id) const;
+    /// Takes effect at the next step's broad phase: pairs it now excludes lose their contacts then, pairs
+    /// it now admits are found (the body is woken, so a resting pair meets again).
+    void set_filter(BodyId id, const CollisionFilter& filter);
+    const CollisionFilter& slot_filter(std::uint32_t slot) const { return filter_[slot]; }
     bool awake(BodyId id) const;
     /// Dynamic bodies awake now.
     std::size_t awake_count() const;
@@ -273,6 +278,7 @@ private:
     std::vector<BodyType> type_;
     std::vector<Shape> shape_;
     std::vector<Material> material_;
+    std::vector<CollisionFilter> filter_;
     std::vector<Real> mass_;
     std::vector<Real> body_inv_mass_;     ///< the body's own inverse mass (0 if not dynamic)
     std::vector<Mat3> inv_inertia_local_;

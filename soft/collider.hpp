@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "engine/core/aabb.hpp"
+#include "engine/core/collision_filter.hpp"
 #include "engine/core/shape.hpp"
 
 namespace sinew {
@@ -26,6 +27,7 @@ struct Collider {
     Real restitution = 0;
     std::uint32_t owner = kNoOwner;  ///< rigid body slot (for coupling layers), or kNoOwner
     std::uint8_t dynamic = 0;        ///< 1 if the owner is a dynamic rigid body (two-way layers push it)
+    CollisionFilter filter;          ///< the owner's: a soft body whose filter excludes it ignores this collider
 
     Vec3 point_velocity(const Vec3& p) const { return v + w.cross(p - com); }
 };

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "engine/core/aabb.hpp"
+#include "engine/core/collision_filter.hpp"
 #include "soft/fem_material.hpp"
 #include "soft/particles.hpp"
 
@@ -114,6 +115,8 @@ struct SoftBodyDef {
     Real restitution = 0;       ///< [0, 1]
     Real thickness = Real(0.01);  ///< particle radius for collisions (m), > 0
     Real gravity_scale = 1;
+    /// Which rigid bodies the particles meet (their colliders' filters; engine/core/collision_filter.hpp).
+    CollisionFilter filter;
     FemMaterial fem;            ///< the elements' material, read when the body has tets
     bool allow_sleep = true;
     std::uint64_t user_data = 0;

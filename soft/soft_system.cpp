@@ -112,6 +112,12 @@ void SoftSystem::wake(SoftBodyId id) {
     bodies_[id.index].sleep_timer = 0;
 }
 
+void SoftSystem::set_filter(SoftBodyId id, const CollisionFilter& filter) {
+    check(id, "set_filter");
+    bodies_[id.index].def.filter = filter;
+    wake(id);
+}
+
 bool SoftSystem::awake(SoftBodyId id) const {
     check(id, "awake");
     return bodies_[id.index].awake;
@@ -315,9 +321,10 @@ void restore_attachment_velocities(SoftBody& b) {
 
 // A sleeping body wakes when something that can touch it moves faster than `wake_speed` (at the
 // corner of its box furthest from its centre of mass, for the rotation).
-bool touched_by_moving_collider(const Aabb& box, const std::vector<Collider>& colliders, Real wake_speed) {
+bool touched_by_moving_collider(const Aabb& box, const CollisionFilter& filter, const std::vector<Collider>& colliders,
+                                Real wake_speed) {
     for (const Collider& c : colliders) {
-        if (!c.box.overlaps(box)) continue;
+        if (!c.box.overlaps(box) || !should_collide(filter, c.filter)) continue;
         const Real reach = (c.box.extent() * Real(0.5)).norm() + (c.box.center() - c.com).norm();
         if (c.v.norm() + c.w.norm() * reach > wake_speed) return true;
     }
@@ -375,7 +382,7 @@ void SoftSystem::detect_collisions(Real h) {
             // this stage, so the forces of this step are taken now.
             // An embedded body is woken by its proxy's island, not by colliders it does not meet.
             if (b.meets_colliders_through_proxy ||
-                !touched_by_moving_collider(bounds(s), colliders_, settings_.sleep_velocity))
+                !touched_by_moving_collider(bounds(s), b.def.filter, colliders_, settings_.sleep_velocity))
                 continue;
             b.sleep_timer = 0;
             begin_step(b, h);

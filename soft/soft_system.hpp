@@ -77,6 +77,8 @@ public:
     const SoftBody& slot_body(std::uint32_t slot) const { return bodies_[slot]; }
 
     void wake(SoftBodyId id);
+    /// Which rigid bodies the particles meet, from the next step (the body is woken). Throws SoftError.
+    void set_filter(SoftBodyId id, const CollisionFilter& filter);
     /// Puts a body to sleep now, its velocities zero (a coupling layer whose proxy of it fell asleep with
     /// its rigid island). Throws SoftError for a bad id.
     void put_to_sleep(SoftBodyId id);

@@ -442,3 +442,32 @@ TEST_CASE("a two-node embedded rope has a proxy it can turn with", "[embedding]"
     const Particles& p = w->soft().body(stick).p;
     for (const Vec3& x : p.x) CHECK(std::abs(x.y() - Real(0.02)) < Real(0.02));  // on the ground, thickness up
 }
+
+TEST_CASE("an embedded soft body's proxy collides as the body's filter says, and follows a change", "[embedding][filter]") {
+    // The cube from 0.5 m over a static slab (category 2). Its filter leaves the slab out: its proxy carries
+    // the filter and the cube falls past the slab; then the mask admits it and a fresh cube lands on it.
+    const std::string base = cube_scene(Vec3(-Real(0.1), Real(0.5), -Real(0.1)), "[0, -9.81, 0]", 2e5);
+    SceneDesc d = parse_scene_string(base, "filter.json");
+    d.bodies[0].def.shape = make_box(Vec3(1, Real(0.05), 1));
+    d.bodies[0].def.pose.p = Vec3(0, Real(-0.05), 0);  // top face y = 0
+    d.bodies[0].def.filter = {2, 0xFFFFFFFFu, 0};
+    d.soft_bodies[0].def.filter = {1, ~2u, 0};
+    const auto lowest = [](const World& w) {
+        Real y = std::numeric_limits<Real>::max();
+        for (const Vec3& x : w.soft().body(w.soft().bodies().at(0)).p.x) y = std::min(y, x.y());
+        return y;
+    };
+    const auto w = build_world(d);
+    const SoftBodyId cube = w->soft().bodies().at(0);
+    REQUIRE(!w->coupling().embedding().proxy(cube).is_null());
+    CHECK(w->rigid().filter(w->coupling().embedding().proxy(cube)) == CollisionFilter{1, ~2u, 0});
+    for (int i = 0; i < 60; ++i) w->step();
+    CHECK(lowest(*w) < Real(-0.5));  // 1 s: fell through the slab
+
+    const auto again = build_world(d);
+    const SoftBodyId c2 = again->soft().bodies().at(0);
+    again->soft().set_filter(c2, CollisionFilter{});
+    for (int i = 0; i < 90; ++i) again->step();
+    CHECK(again->rigid().filter(again->coupling().embedding().proxy(c2)) == CollisionFilter{});
+    CHECK(lowest(*again) == Approx(0).margin(0.02));  // resting on the slab's top face
+}

@@ -315,3 +315,28 @@ TEST_CASE("bodies that share a hull share it again after loading, written once u
         ++copies;
     CHECK(copies == 1);
 }
+
+TEST_CASE("collision filters load from a scene and survive a save", "[scene][save][filter]") {
+    const char* text = R"({"format":"sinew-scene","version":1,"name":"filters",
+      "bodies":[{"name":"ground","type":"static","shape":{"type":"box","half_extents":[5,0.5,5]},"position":[0,-0.5,0]},
+                {"name":"debris","shape":{"type":"sphere","radius":0.2},"position":[0,1,0],
+                 "filter":{"category":4,"mask":4294967294,"group":-3}}],
+      "soft_bodies":[{"name":"rope","builder":"rope","from":[1,2,0],"to":[2,2,0],"segments":4,"mass":0.5,
+                      "filter":{"mask":1}}]})";
+    const auto world = build_world(parse_scene_string(text, "filters.json"));
+    const std::vector<BodyId> ids = world->rigid().bodies();
+    REQUIRE(ids.size() == 2);
+    CHECK(world->rigid().filter(ids[0]) == CollisionFilter{});
+    CHECK(world->rigid().filter(ids[1]) == CollisionFilter{4, 0xFFFFFFFEu, -3});
+    const SoftBodyId rope = world->soft().bodies().at(0);
+    CHECK(world->soft().body(rope).def.filter == CollisionFilter{1, 1, 0});
+
+    const std::string path = temp_path("filters.json");
+    save_scene_file(*world, path);
+    const auto back = load(path);
+    std::remove(path.c_str());
+    const std::vector<BodyId> back_ids = back->rigid().bodies();
+    CHECK(back->rigid().filter(back_ids[0]) == CollisionFilter{});
+    CHECK(back->rigid().filter(back_ids[1]) == CollisionFilter{4, 0xFFFFFFFEu, -3});
+    CHECK(back->soft().body(back->soft().bodies().at(0)).def.filter == CollisionFilter{1, 1, 0});
+}

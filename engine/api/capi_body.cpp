@@ -63,6 +63,7 @@ sinew_body_def sinew_body_def_default(void) {
     d.restitution = float(m.restitution);
     d.linear_damping = 0;
     d.angular_damping = 0;
+    d.filter = to_c(CollisionFilter{});
     d.user_data = 0;
     return d;
 }
@@ -98,6 +99,7 @@ sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, 
         b.material.restitution = Real(def->restitution);
         b.linear_damping = Real(def->linear_damping);
         b.angular_damping = Real(def->angular_damping);
+        b.filter = to_filter(def->filter);
         b.user_data = def->user_data;
         BodyId id = w->rigid().create_body(b);  // RigidError names the rest; nothing is created then
         *out = {pack_world(world), id.index, id.generation};
@@ -180,6 +182,27 @@ sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, si
         if (t.status) return t.status;
         if (!finite(impulse) || !finite(point)) return invalid(fn, "impulse and world_point must be finite");
         t.world->rigid().apply_impulse(t.body, to_vec(impulse), to_vec(point));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_filter(sinew_body_id body, sinew_filter filter) {
+    const char* fn = "sinew_body_set_filter";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().set_filter(t.body, to_filter(filter));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_get_filter(sinew_body_id body, sinew_filter* out) {
+    const char* fn = "sinew_body_get_filter";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = to_c(t.world->rigid().filter(t.body));
         return SINEW_OK;
     });
 }

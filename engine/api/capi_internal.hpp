@@ -56,6 +56,8 @@ void unregister_world(sinew_world_id id);
 inline Vec3 to_vec(const sinew_vec3& v) { return Vec3(Real(v.x), Real(v.y), Real(v.z)); }
 inline sinew_vec3 to_c(const Vec3& v) { return {float(v.x()), float(v.y()), float(v.z())}; }
 inline Quat to_quat(const sinew_quat& q) { return Quat(Real(q.w), Real(q.x), Real(q.y), Real(q.z)); }
+inline CollisionFilter to_filter(const sinew_filter& f) { return {f.category_bits, f.mask_bits, f.group_index}; }
+inline sinew_filter to_c(const CollisionFilter& f) { return {f.category, f.mask, f.group}; }
 inline sinew_transform to_c(const Transform& t) {
     return {to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
 }

@@ -75,6 +75,7 @@ SoftBodyDef base_def(const sinew_soft_def& d) {
     b.initial_velocity = to_vec(d.velocity);
     b.gravity_scale = Real(d.gravity_scale);
     b.allow_sleep = d.allow_sleep == 1;
+    b.filter = to_filter(d.filter);
     b.user_data = d.user_data;
     return b;
 }
@@ -224,6 +225,7 @@ sinew_soft_def sinew_soft_def_default(void) {
     d.velocity = to_c(b.initial_velocity);
     d.gravity_scale = float(b.gravity_scale);
     d.allow_sleep = b.allow_sleep ? 1 : 0;
+    d.filter = to_c(b.filter);
     d.user_data = 0;
     return d;
 }
@@ -458,6 +460,27 @@ sinew_status sinew_soft_apply_particle_force(sinew_soft_body_id body, int partic
         if (sinew_status s = check_particle(t, particle, fn)) return s;
         if (!finite(force)) return invalid(fn, "force = " + vec_text(force) + " must be finite");
         t.world->soft().apply_particle_force(t.body, static_cast<std::uint32_t>(particle), to_vec(force));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_set_filter(sinew_soft_body_id body, sinew_filter filter) {
+    const char* fn = "sinew_soft_set_filter";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->soft().set_filter(t.body, to_filter(filter));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_soft_get_filter(sinew_soft_body_id body, sinew_filter* out) {
+    const char* fn = "sinew_soft_get_filter";
+    return guarded(fn, [&] {
+        if (!out) return null_arg(fn, "out");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = to_c(t.world->soft().body(t.body).def.filter);
         return SINEW_OK;
     });
 }

@@ -118,6 +118,16 @@ typedef struct sinew_shape_def {
     sinew_vec3 half_extents; /* m: box (default 0.5, 0.5, 0.5) */
 } sinew_shape_def;
 
+/* Which bodies may touch (Box2D's rule): two bodies of the same non-zero group_index always collide
+ * (> 0) or never (< 0); otherwise each one's category_bits must meet the other's mask_bits. Soft bodies
+ * carry one too, matched against the rigid bodies their particles meet. Joined bodies do not collide
+ * unless their joint says so (sinew_joint_def.collide_connected). */
+typedef struct sinew_filter {
+    uint32_t category_bits; /* what this body is (default 1) */
+    uint32_t mask_bits;     /* the categories it collides with (default 0xFFFFFFFF: all) */
+    int32_t group_index;    /* 0 = none (default) */
+} sinew_filter;
+
 typedef struct sinew_body_def {
     sinew_body_type type;     /* default SINEW_BODY_DYNAMIC */
     sinew_transform transform; /* body origin in the world, default identity */
@@ -130,6 +140,7 @@ typedef struct sinew_body_def {
     float restitution;        /* [0, 1], default 0 */
     float linear_damping;     /* 1/s, default 0 */
     float angular_damping;    /* 1/s, default 0 */
+    sinew_filter filter;      /* default: category 1, collides with everything */
     uint64_t user_data;       /* yours, returned by sinew_body_user_data() */
 } sinew_body_def;
 
@@ -169,6 +180,10 @@ SINEW_API sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 li
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
+/** Takes effect at the next step: contacts of pairs it now excludes are gone after it, pairs it admits
+ *  meet (the body is woken). Not during a step (SINEW_ERROR_IN_STEP). */
+SINEW_API sinew_status sinew_body_set_filter(sinew_body_id body, sinew_filter filter);
+SINEW_API sinew_status sinew_body_get_filter(sinew_body_id body, sinew_filter* out);
 
 /* ==== Soft bodies ====================================================================================
  * Particles joined by links (cloth, ropes, spheres, any triangle mesh) or by tetrahedral elements (FEM
@@ -209,6 +224,7 @@ typedef struct sinew_soft_def {
     sinew_vec3 velocity;        /* m/s, initial velocity of every free particle (default 0) */
     float gravity_scale;        /* finite (default 1) */
     int allow_sleep;            /* 0 or 1 (default 1) */
+    sinew_filter filter;        /* which rigid bodies the particles meet (default: all) */
     uint64_t user_data;         /* yours, returned by sinew_soft_user_data() */
 } sinew_soft_def;
 
@@ -266,6 +282,10 @@ SINEW_API sinew_status sinew_soft_set_particle_position(sinew_soft_body_id body,
 /** Adds a force (N) on a particle for the next step. Wakes the body. */
 SINEW_API sinew_status sinew_soft_apply_particle_force(sinew_soft_body_id body, int particle, sinew_vec3 force);
 SINEW_API sinew_status sinew_soft_user_data(sinew_soft_body_id body, uint64_t* out);
+/** Which rigid bodies the particles meet, from the next step (the body is woken; an embedded body's proxy
+ *  follows). Not during a step. */
+SINEW_API sinew_status sinew_soft_set_filter(sinew_soft_body_id body, sinew_filter filter);
+SINEW_API sinew_status sinew_soft_get_filter(sinew_soft_body_id body, sinew_filter* out);
 SINEW_API sinew_status sinew_world_soft_body_count(sinew_world_id world, int* out);
 /** Up to capacity soft body handles, in slot order (creation order in a fresh world, scene file order for
  *  a loaded scene); *count receives how many were written. */

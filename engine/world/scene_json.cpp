@@ -333,4 +333,33 @@ Vec3 read_vec3(const Node& obj, const char* key, const Vec3& fallback) {
     return n ? n->vec3() : fallback;
 }
 
+CollisionFilter read_filter(const Node& obj) {
+    CollisionFilter f;
+    std::optional<Node> n = obj.find("filter");
+    if (!n) return f;
+    n->allow_keys({"category", "mask", "group"});
+    const auto bits = [&](const char* key, std::uint32_t fallback) -> std::uint32_t {
+        std::optional<Node> k = n->find(key);
+        if (!k) return fallback;
+        const long long v = k->integer();
+        if (v < 0 || v > 0xFFFFFFFFll)
+            k->fail(std::string(key) + " must be an integer in [0, 4294967295] (32 category bits), got " + k->json().dump());
+        return std::uint32_t(v);
+    };
+    f.category = bits("category", f.category);
+    f.mask = bits("mask", f.mask);
+    if (std::optional<Node> g = n->find("group")) {
+        const long long v = g->integer();
+        if (v < -2147483648ll || v > 2147483647ll)
+            g->fail("group must be an integer in [-2147483648, 2147483647], got " + g->json().dump());
+        f.group = std::int32_t(v);
+    }
+    return f;
+}
+
+Json filter_json(const CollisionFilter& f) {
+    if (f == CollisionFilter{}) return Json(nullptr);
+    return Json{{"category", f.category}, {"mask", f.mask}, {"group", f.group}};
+}
+
 }  // namespace sinew::scene_json

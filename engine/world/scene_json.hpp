@@ -98,6 +98,11 @@ Real read_real(const Node& obj, const char* key, Real fallback, Range range);
 int read_int(const Node& obj, const char* key, int fallback, long long lo, long long hi = 1000000000);
 bool read_bool(const Node& obj, const char* key, bool fallback);
 Vec3 read_vec3(const Node& obj, const char* key, const Vec3& fallback);
+/// The optional "filter" object of a body or soft body: {"category", "mask"} (integers in [0, 2^32 - 1])
+/// and "group" (an integer in [-2^31, 2^31 - 1]), each optional (engine/core/collision_filter.hpp).
+CollisionFilter read_filter(const Node& obj);
+/// The same as JSON, or null when it is the default (saved scenes write it only when set).
+Json filter_json(const CollisionFilter& f);
 
 /// Maps the string at `key` to one of `choices` (name, value), or fails listing them.
 template <class T, std::size_t N>

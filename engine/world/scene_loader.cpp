@@ -382,7 +382,7 @@ private:
     void parse_body(const Node& b, std::size_t index) {
         b.allow_keys({"name", "type", "shape", "position", "rotation", "rotation_deg", "linear_velocity",
                       "angular_velocity", "material", "mass", "linear_damping", "angular_damping", "gravity_scale",
-                      "allow_sleep", "user_data"});
+                      "allow_sleep", "filter", "user_data"});
         static const std::pair<const char*, BodyType> types[] = {
             {"static", BodyType::Static}, {"kinematic", BodyType::Kinematic}, {"dynamic", BodyType::Dynamic}};
         SceneBody body;
@@ -421,6 +421,7 @@ private:
         d.angular_damping = read_real(b, "angular_damping", d.angular_damping, Range::NonNegative);
         d.gravity_scale = read_real(b, "gravity_scale", d.gravity_scale, Range::Any);
         d.allow_sleep = read_bool(b, "allow_sleep", d.allow_sleep);
+        d.filter = read_filter(b);
         check_mass_properties(d, b);
         if (auto n = b.find("user_data")) {
             if (!n->json().is_number_unsigned()) n->type_error("an integer >= 0");

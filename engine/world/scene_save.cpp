@@ -307,6 +307,7 @@ Json body_json(const RigidSystem& rigid, BodyId id, const std::unordered_map<con
     b["angular_damping"] = number(rigid.angular_damping(id));
     b["gravity_scale"] = number(rigid.gravity_scale(id));
     b["allow_sleep"] = rigid.allow_sleep(id);
+    if (const Json f = scene_json::filter_json(rigid.filter(id)); !f.is_null()) b["filter"] = f;
     if (rigid.user_data(id) != 0) b["user_data"] = rigid.user_data(id);
     return b;
 }

@@ -64,6 +64,7 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
                                   {"thickness", number(d.thickness)}});
     j["gravity_scale"] = number(d.gravity_scale);
     j["allow_sleep"] = d.allow_sleep;
+    if (const Json f = scene_json::filter_json(d.filter); !f.is_null()) j["filter"] = f;
     if (d.user_data != 0) j["user_data"] = d.user_data;
 
     const Particles& p = b.p;

@@ -318,7 +318,7 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         // link material, so for it "links" is the array of links.
         const bool is_explicit = out.builder == "explicit";
         std::vector<const char*> keys = {"name", "builder", "method", "solver", "material", "pinned", "attachments",
-                                         "velocity", "gravity_scale", "allow_sleep", "user_data"};
+                                         "velocity", "gravity_scale", "allow_sleep", "filter", "user_data"};
         const bool is_fem = out.builder == "tet-box" || out.builder == "tet-mesh" || (is_explicit && b.find("tets"));
         if (!is_explicit && !is_fem) keys.insert(keys.end(), {"mass", "links"});
         // "fem" is a key of FEM bodies only (an explicit body is one when it has "tets").
@@ -358,6 +358,7 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         base.initial_velocity = read_vec3(b, "velocity", Vec3::Zero());
         base.gravity_scale = read_real(b, "gravity_scale", 1, Range::Any);
         base.allow_sleep = read_bool(b, "allow_sleep", true);
+        base.filter = read_filter(b);
         if (auto n = b.find("user_data")) {
             if (!n->json().is_number_unsigned()) n->type_error("an integer >= 0");
             base.user_data = n->json().get<std::uint64_t>();

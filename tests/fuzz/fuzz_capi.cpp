@@ -27,9 +27,13 @@ public:
     bool empty() const { return i_ >= n_; }
     std::uint8_t u8() { return i_ < n_ ? d_[i_++] : 0; }
     int pick(int n) { return n > 0 ? int(u8()) % n : 0; }
-    float raw() {
+    std::uint32_t bits() {
         std::uint32_t b = 0;
         for (int k = 0; k < 4; ++k) b |= std::uint32_t(u8()) << (8 * k);
+        return b;
+    }
+    float raw() {
+        const std::uint32_t b = bits();
         float f;
         static_assert(sizeof f == sizeof b, "float is 32 bits");
         __builtin_memcpy(&f, &b, sizeof f);
@@ -341,6 +345,13 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
                 break;
             }
             default: {
+                // Filters: any bits and groups, on live, stale and foreign handles.
+                if (const int k = in.pick(3); k < 2) {
+                    const sinew_filter f{in.bits(), in.bits(), std::int32_t(in.bits())};
+                    if (k == 0) s.watch(sinew_body_set_filter(s.body(in), f), "sinew_body_set_filter");
+                    else s.watch(sinew_soft_set_filter(s.soft_body(in), f), "sinew_soft_set_filter");
+                    break;
+                }
                 sinew_vec3 f, t;
                 if (!s.joints.empty())
                     s.watch(sinew_joint_get_reaction(s.joints[std::size_t(in.pick(int(s.joints.size())))], &f, &t),
