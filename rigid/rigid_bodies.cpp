@@ -295,6 +295,26 @@ void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
     wake_island(id.index);
 }
 
+void RigidSystem::set_target_transform(BodyId id, const Transform& target, Real h) {
+    check(id, "set_target_transform");
+    const std::uint32_t s = id.index;
+    if (type_[s] == BodyType::Static)
+        throw RigidError("set_target_transform: body " + std::to_string(s) + " is static (make it kinematic to move it)");
+    if (!(h > 0) || !std::isfinite(h)) throw RigidError("set_target_transform: the step must be finite and > 0, got " + to_text(h));
+    if (!is_finite(target.p) || !std::isfinite(target.q.norm()) || target.q.norm() < Real(1e-6))
+        throw RigidError("set_target_transform: the target must be finite with a non-zero quaternion");
+    const Quat q_target = target.q.normalized();
+    // The centre of mass moves in a straight line to where the target puts it; the rotation is the
+    // exact update's (rigid_integration.cpp: q' = exp(w h / 2) q), so w = axis * angle / h.
+    const Vec3 v = (target.apply(local_com_[s]) - state_.x[s]) / h;
+    Quat dq = q_target * state_.q[s].conjugate();
+    if (dq.w() < 0) dq.coeffs() = -dq.coeffs();  // the shorter way round
+    const Real sin_half = dq.vec().norm();
+    const Real angle = 2 * std::atan2(sin_half, dq.w());
+    const Vec3 w = sin_half > Real(1e-12) ? Vec3(dq.vec() * (angle / (sin_half * h))) : Vec3(2 * dq.vec() / h);
+    set_velocity(id, v, w);  // checks the speed limits; wakes the body's island
+}
+
 void RigidSystem::apply_force(BodyId id, const Vec3& f, const Vec3& p) {
     check(id, "apply_force");
     if (!is_finite(f) || !is_finite(p)) throw RigidError("apply_force: force and point must be finite");

@@ -101,6 +101,13 @@ public:
     /// Throws RigidError (nothing changed) for a non-finite or too fast velocity (kMaxBodySpeed, kMaxBodySpin)
     /// and for a non-zero one on a static body.
     void set_velocity(BodyId id, const Vec3& v, const Vec3& w);
+    /// Moves a kinematic (or dynamic) body to `target` (its origin's pose) over the next step of `h`
+    /// seconds by setting the velocities that take it there (Box2D's b2Body_SetTargetTransform, Jolt's
+    /// MoveKinematic): the contacts it pushes and the soft bodies it carries see the motion, as they would
+    /// not if it were teleported. The rotation takes the shorter way (at most half a turn per step).
+    /// Throws RigidError (nothing changed) for a static body, a non-finite target, a zero quaternion,
+    /// h <= 0, or a velocity past set_velocity's limits.
+    void set_target_transform(BodyId id, const Transform& target, Real h);
     /// Pose and velocity of a moving body that something else drives every step (a soft body's proxy,
     /// coupling/rigid_embedding.hpp): unlike set_transform and set_velocity it wakes nothing, so the body's
     /// island may still fall asleep when the driven motion is slow. Not checked beyond the id.

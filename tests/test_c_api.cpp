@@ -283,3 +283,48 @@ TEST_CASE("C API: collision filters on bodies and soft bodies, set at creation a
     CHECK(sinew_soft_get_filter(rope, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+TEST_CASE("C API: a kinematic platform moved by target transforms carries a box at its speed", "[capi][kinematic]") {
+    sinew_world_id w = make_world();
+    sinew_body_def p = sinew_body_def_default();
+    p.type = SINEW_BODY_KINEMATIC;
+    p.shape.half_extents = {3, 0.1f, 3};
+    p.transform.p.y = 0.1f;
+    sinew_body_id platform;
+    REQUIRE(sinew_body_create(w, &p, &platform) == SINEW_OK);
+    sinew_body_def b = sinew_body_def_default();
+    b.shape.half_extents = {0.25f, 0.25f, 0.25f};
+    b.transform.p.y = 0.45f;
+    b.mass = 1;
+    sinew_body_id box;
+    REQUIRE(sinew_body_create(w, &b, &box) == SINEW_OK);
+    const float h = 1.0f / 60;
+    for (int i = 1; i <= 120; ++i) {
+        sinew_transform t = p.transform;
+        t.p.x = 1.0f * float(i) * h;
+        REQUIRE(sinew_body_set_target_transform(platform, &t, h) == SINEW_OK);
+        REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    }
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(platform, &t) == SINEW_OK);
+    CHECK(t.p.x == Approx(2.0).margin(1e-4));
+    sinew_vec3 v, a;
+    REQUIRE(sinew_body_get_velocity(box, &v, &a) == SINEW_OK);
+    CHECK(v.x == Approx(1.0).epsilon(0.01));
+    // Misuse: NULL target, a zero step, a NaN target, a static body; the platform stays where it is.
+    CHECK(sinew_body_set_target_transform(platform, nullptr, h) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_body_set_target_transform(platform, &t, 0) == SINEW_ERROR_INVALID_ARGUMENT);
+    sinew_transform bad = t;
+    bad.p.y = std::numeric_limits<float>::quiet_NaN();
+    CHECK(sinew_body_set_target_transform(platform, &bad, h) == SINEW_ERROR_INVALID_ARGUMENT);
+    sinew_body_def g = sinew_body_def_default();
+    g.type = SINEW_BODY_STATIC;
+    g.transform.p.y = -5;
+    sinew_body_id ground;
+    REQUIRE(sinew_body_create(w, &g, &ground) == SINEW_OK);
+    CHECK(sinew_body_set_target_transform(ground, &t, h) == SINEW_ERROR_INVALID_ARGUMENT);
+    sinew_vec3 pv;
+    REQUIRE(sinew_body_get_velocity(platform, &pv, &a) == SINEW_OK);
+    CHECK(pv.x == Approx(1.0).epsilon(1e-4));
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}

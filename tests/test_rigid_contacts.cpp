@@ -357,3 +357,64 @@ TEST_CASE("bodies of one negative group never collide, whatever their bits", "[r
     CHECK(f.world->rigid().contacts().empty());
     CHECK(f.world->rigid().state().x[f.box.index].y() < Real(-2));
 }
+
+// ---- kinematic bodies moved to a target (RigidSystem::set_target_transform) --------------------------
+
+TEST_CASE("a kinematic body set a target transform each step ends every step on it", "[rigid][kinematic]") {
+    World w;
+    BodyDef d;
+    d.type = BodyType::Kinematic;
+    d.shape = make_box(Vec3(1, Real(0.1), Real(0.5)));
+    const BodyId k = w.rigid().create_body(d);
+    const Real h = w.settings().time_step;
+    for (int i = 1; i <= 30; ++i) {
+        // 1 m/s along x, a quarter turn about y over the 30 steps, and back up along y.
+        const Real t = Real(i) * h;
+        const Transform target{Vec3(t, Real(0.5) * std::sin(t * 4), 0),
+                               Quat(Eigen::AngleAxis<Real>(Real(kPi / 2) * Real(i) / 30, Vec3::UnitY()))};
+        w.rigid().set_target_transform(k, target, h);
+        w.step();
+        const Transform now = w.rigid().transform(k);
+        INFO("step " << i);
+        CHECK((now.p - target.p).norm() < Real(1e-4));
+        CHECK(std::abs(now.q.dot(target.q)) == Approx(1).margin(1e-6));
+    }
+    // A static body cannot be moved, a bad step or target is refused, and nothing changes.
+    d.type = BodyType::Static;
+    const BodyId s = w.rigid().create_body(d);
+    CHECK_THROWS_AS(w.rigid().set_target_transform(s, Transform{}, h), RigidError);
+    CHECK_THROWS_AS(w.rigid().set_target_transform(k, Transform{}, 0), RigidError);
+    CHECK_THROWS_AS(w.rigid().set_target_transform(k, Transform{Vec3(kRealMax, 0, 0), Quat::Identity()}, h), RigidError);
+    CHECK_THROWS_AS(w.rigid().set_target_transform(k, Transform{Vec3::Zero(), Quat(0, 0, 0, 0)}, h), RigidError);
+}
+
+TEST_CASE("a kinematic platform moving at constant speed carries a resting box without slip", "[rigid][kinematic]") {
+    World w;
+    BodyDef p;
+    p.type = BodyType::Kinematic;
+    p.shape = make_box(Vec3(3, Real(0.1), 3));
+    p.pose.p = Vec3(0, Real(0.1), 0);
+    const BodyId platform = w.rigid().create_body(p);
+    BodyDef b;
+    b.shape = make_box(Vec3::Constant(Real(0.25)));
+    b.pose.p = Vec3(0, Real(0.45), 0);
+    b.mass = 1;
+    const BodyId box = w.rigid().create_body(b);
+    const Real h = w.settings().time_step, speed = Real(1.5);
+    double vx_sum = 0, vx_min = 1e9, vx_max = -1e9;
+    for (int i = 1; i <= 120; ++i) {
+        w.rigid().set_target_transform(platform, Transform{Vec3(speed * Real(i) * h, Real(0.1), 0), Quat::Identity()}, h);
+        w.step();
+        if (i > 60) {  // friction (0.6) brings the box to the platform's speed within 0.26 s; the second second is measured
+            const double vx = w.rigid().linear_velocity(box).x();
+            vx_sum += vx;
+            vx_min = std::min(vx_min, vx);
+            vx_max = std::max(vx_max, vx);
+        }
+    }
+    CHECK(w.rigid().linear_velocity(platform).x() == Approx(speed).epsilon(1e-4));
+    CHECK(vx_sum / 60 == Approx(speed).epsilon(0.01));
+    CHECK(vx_min == Approx(speed).epsilon(0.01));
+    CHECK(vx_max == Approx(speed).epsilon(0.01));
+    CHECK(w.rigid().transform(box).p.y() == Approx(0.45).margin(0.01));  // still on it
+}

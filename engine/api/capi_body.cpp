@@ -164,6 +164,22 @@ sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sine
     });
 }
 
+sinew_status sinew_body_set_target_transform(sinew_body_id body, const sinew_transform* target_transform, float time_step) {
+    const char* fn = "sinew_body_set_target_transform";
+    return guarded(fn, [&] {
+        if (!target_transform) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": target is NULL");
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (!finite(target_transform->p)) return invalid(fn, "target->p must be finite");
+        if (!unit_quat_ok(target_transform->q)) return invalid(fn, "target->q must be a finite non-zero quaternion");
+        if (!(time_step > 0) || !std::isfinite(time_step))
+            return invalid(fn, "time_step = " + to_text(time_step) + " must be finite and > 0");
+        const Transform xf{to_vec(target_transform->p), to_quat(target_transform->q)};
+        t.world->rigid().set_target_transform(t.body, xf, Real(time_step));  // RigidError: static, too fast
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 point) {
     const char* fn = "sinew_body_apply_force";
     return guarded(fn, [&] {

@@ -177,6 +177,12 @@ SINEW_API sinew_status sinew_body_get_velocity(sinew_body_id body, sinew_vec3* l
 /** For kinematic bodies this is how the game drives them. At most 1e4 m/s and 1e4 rad/s; a static body takes
  *  only a zero velocity (SINEW_ERROR_INVALID_ARGUMENT otherwise: make it kinematic to move it). */
 SINEW_API sinew_status sinew_body_set_velocity(sinew_body_id body, sinew_vec3 linear, sinew_vec3 angular);
+/** Moves a kinematic (or dynamic) body to `target` (m; its origin's pose) over the next step of time_step
+ *  seconds (> 0; the world's fixed step) by setting the velocities that take it there, so what it pushes
+ *  or carries moves with it (a moving platform). Call it before each step. The rotation takes the
+ *  shorter way. A static body is refused (SINEW_ERROR_INVALID_ARGUMENT), as are speeds past
+ *  sinew_body_set_velocity's limits. */
+SINEW_API sinew_status sinew_body_set_target_transform(sinew_body_id body, const sinew_transform* target, float time_step);
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);

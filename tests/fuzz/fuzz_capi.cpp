@@ -346,10 +346,18 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
             }
             default: {
                 // Filters: any bits and groups, on live, stale and foreign handles.
-                if (const int k = in.pick(3); k < 2) {
+                const int k = in.pick(4);
+                if (k < 2) {
                     const sinew_filter f{in.bits(), in.bits(), std::int32_t(in.bits())};
                     if (k == 0) s.watch(sinew_body_set_filter(s.body(in), f), "sinew_body_set_filter");
                     else s.watch(sinew_soft_set_filter(s.soft_body(in), f), "sinew_soft_set_filter");
+                    break;
+                }
+                if (k == 2) {  // a moving platform's target, anywhere, in any step
+                    sinew_transform t{in.pick(2) ? in.sane_vec() : in.vec(), {in.value(), in.value(), in.value(), in.value()}};
+                    if (in.pick(2)) t.q = {0, 0, 0, 1};
+                    s.watch(sinew_body_set_target_transform(s.body(in), &t, in.pick(2) ? 1.0f / 60 : in.value()),
+                            "sinew_body_set_target_transform");
                     break;
                 }
                 sinew_vec3 f, t;
