@@ -12,5 +12,13 @@ cmake --build "$prefix/build" >/dev/null
 LD_LIBRARY_PATH="$prefix/usr/lib:$prefix/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}" "$prefix/build/consumer_c"
 # Headers internal to a layer (CMakeLists.txt SINEW_INTERNAL_HEADERS) are not installed.
 test ! -e "$prefix/usr/include/sinew/rigid/joint_rows.hpp" && test ! -e "$prefix/usr/include/sinew/soft/solver_caches.hpp"
-test -f "$prefix/usr/lib/pkgconfig/sinew.pc" || test -f "$prefix/usr/lib/x86_64-linux-gnu/pkgconfig/sinew.pc"
-echo "install: find_package(sinew) consumer built and ran"
+# pkg-config from the installed prefix (the .pc finds its prefix from its own location), and the tool.
+pc_dir=$(dirname "$(find "$prefix/usr" -name sinew.pc | head -1)")
+cc_flags=$(PKG_CONFIG_PATH="$pc_dir" pkg-config --cflags --libs sinew)
+case "$cc_flags" in *"$prefix/usr"*) ;; *) echo "install: pkg-config points outside the prefix: $cc_flags" >&2; exit 1 ;; esac
+cc -std=c99 -o "$prefix/pc_consumer" "$source_dir/demos/cmake-consumer/main.c" $cc_flags
+LD_LIBRARY_PATH="$(PKG_CONFIG_PATH="$pc_dir" pkg-config --variable=libdir sinew):${LD_LIBRARY_PATH:-}" "$prefix/pc_consumer"
+if [ -d "$build_dir/tools" ]; then
+  "$prefix/usr/bin/sinew" validate "$source_dir/demos/scenes/pyramid-10.json" >/dev/null
+fi
+echo "install: find_package(sinew) and pkg-config consumers built and ran; the sinew tool runs from the prefix"
