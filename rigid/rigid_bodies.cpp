@@ -345,6 +345,20 @@ const Mat3& RigidSystem::inverse_inertia_local(BodyId id) const {
 Real RigidSystem::linear_damping(BodyId id) const { check(id, "linear_damping"); return linear_damping_[id.index]; }
 Real RigidSystem::angular_damping(BodyId id) const { check(id, "angular_damping"); return angular_damping_[id.index]; }
 Real RigidSystem::gravity_scale(BodyId id) const { check(id, "gravity_scale"); return gravity_scale_[id.index]; }
+void RigidSystem::set_gravity_scale(BodyId id, Real scale) {
+    check(id, "set_gravity_scale");
+    if (!std::isfinite(scale)) throw RigidError("set_gravity_scale: the scale must be finite, got " + to_text(scale));
+    gravity_scale_[id.index] = scale;
+    wake_island(id.index);
+}
+void RigidSystem::set_damping(BodyId id, Real linear, Real angular) {
+    check(id, "set_damping");
+    if (!(linear >= 0 && std::isfinite(linear)) || !(angular >= 0 && std::isfinite(angular)))
+        throw RigidError("set_damping: damping must be finite and >= 0, got " + to_text(linear) + " and " + to_text(angular));
+    linear_damping_[id.index] = linear;
+    angular_damping_[id.index] = angular;
+    wake_island(id.index);
+}
 bool RigidSystem::allow_sleep(BodyId id) const { check(id, "allow_sleep"); return allow_sleep_[id.index]; }
 const Shape& RigidSystem::shape(BodyId id) const { check(id, "shape"); return shape_[id.index]; }
 const Material& RigidSystem::material(BodyId id) const { check(id, "material"); return material_[id.index]; }

@@ -121,6 +121,11 @@ public:
     Real linear_damping(BodyId id) const;   ///< 1/s, as created
     Real angular_damping(BodyId id) const;  ///< 1/s, as created
     Real gravity_scale(BodyId id) const;
+    /// From the next step; wakes the body. Throws RigidError for a non-finite scale.
+    void set_gravity_scale(BodyId id, Real scale);
+    /// From the next step (1/s, v *= 1 / (1 + h c)); wakes the body. Throws RigidError for a negative or
+    /// non-finite value.
+    void set_damping(BodyId id, Real linear, Real angular);
     bool allow_sleep(BodyId id) const;
     const Shape& shape(BodyId id) const;
     const Material& material(BodyId id) const;

@@ -328,3 +328,60 @@ TEST_CASE("C API: a kinematic platform moved by target transforms carries a box 
     CHECK(pv.x == Approx(1.0).epsilon(1e-4));
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+TEST_CASE("C API: body control: sleep and wake, mass, gravity scale, damping", "[capi][body]") {
+    sinew_world_id w = make_world();
+    sinew_body_def g = sinew_body_def_default();
+    g.type = SINEW_BODY_STATIC;
+    g.shape.half_extents = {10, 0.5f, 10};
+    g.transform.p.y = -0.5f;
+    sinew_body_id ground;
+    REQUIRE(sinew_body_create(w, &g, &ground) == SINEW_OK);
+    sinew_body_def b = sinew_body_def_default();
+    b.transform.p.y = 0.5f;  // resting on the ground
+    b.mass = 3;
+    sinew_body_id box;
+    REQUIRE(sinew_body_create(w, &b, &box) == SINEW_OK);
+    float m = 0;
+    REQUIRE(sinew_body_get_mass(box, &m) == SINEW_OK);
+    CHECK(m == 3.0f);
+    REQUIRE(sinew_body_get_mass(ground, &m) == SINEW_OK);
+    CHECK(m == 0.0f);
+    int awake = -1;
+    REQUIRE(sinew_body_is_awake(box, &awake) == SINEW_OK);
+    CHECK(awake == 1);
+    for (int i = 0; i < 90; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);  // 1.5 s at rest: asleep after 0.5 s
+    REQUIRE(sinew_body_is_awake(box, &awake) == SINEW_OK);
+    CHECK(awake == 0);
+    REQUIRE(sinew_body_wake(box) == SINEW_OK);
+    REQUIRE(sinew_body_is_awake(box, &awake) == SINEW_OK);
+    CHECK(awake == 1);
+    REQUIRE(sinew_body_is_awake(ground, &awake) == SINEW_OK);
+    CHECK(awake == 0);
+
+    // Gravity scale -1: the box rises at g from rest. The default solver takes 5 sub-steps a step, so after
+    // 30 steps (n = 150 sub-steps of h/5) semi-implicit Euler's sum gives 0.5 + g (h/5)^2 n (n + 1) / 2.
+    REQUIRE(sinew_body_set_gravity_scale(box, -1) == SINEW_OK);
+    for (int i = 0; i < 30; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    const double hs = 1.0 / 300;
+    CHECK(t.p.y == Approx(0.5 + 9.81 * hs * hs * 150 * 151 / 2).epsilon(1e-3));
+    // Damping c = 2/s with gravity off: v *= 1 / (1 + 2 h/5) at each of the 150 sub-steps.
+    REQUIRE(sinew_body_set_gravity_scale(box, 0) == SINEW_OK);
+    REQUIRE(sinew_body_set_damping(box, 2, 0) == SINEW_OK);
+    sinew_vec3 v0, v1, a;
+    REQUIRE(sinew_body_get_velocity(box, &v0, &a) == SINEW_OK);
+    for (int i = 0; i < 30; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    REQUIRE(sinew_body_get_velocity(box, &v1, &a) == SINEW_OK);
+    CHECK(v1.y == Approx(v0.y / std::pow(1 + 2 * hs, 150)).epsilon(1e-3));
+    // Misuse: the state is unchanged.
+    CHECK(sinew_body_set_damping(box, -1, 0) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_body_set_gravity_scale(box, std::numeric_limits<float>::infinity()) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_body_is_awake(box, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_body_get_mass(box, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    sinew_body_id stale = box;
+    stale.generation += 3;
+    CHECK(sinew_body_wake(stale) == SINEW_ERROR_STALE_ID);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}

@@ -202,6 +202,59 @@ sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, si
     });
 }
 
+sinew_status sinew_body_wake(sinew_body_id body) {
+    const char* fn = "sinew_body_wake";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().wake(t.body);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_is_awake(sinew_body_id body, int* out) {
+    const char* fn = "sinew_body_is_awake";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        const RigidSystem& r = t.world->rigid();
+        *out = r.type(t.body) != BodyType::Static && r.awake(t.body) ? 1 : 0;
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_get_mass(sinew_body_id body, float* out) {
+    const char* fn = "sinew_body_get_mass";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = float(t.world->rigid().mass(t.body));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_gravity_scale(sinew_body_id body, float scale) {
+    const char* fn = "sinew_body_set_gravity_scale";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().set_gravity_scale(t.body, Real(scale));  // RigidError: not finite
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_damping(sinew_body_id body, float linear, float angular) {
+    const char* fn = "sinew_body_set_damping";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().set_damping(t.body, Real(linear), Real(angular));  // RigidError: negative, not finite
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_body_set_filter(sinew_body_id body, sinew_filter filter) {
     const char* fn = "sinew_body_set_filter";
     return guarded(fn, [&] {

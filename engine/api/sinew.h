@@ -186,6 +186,16 @@ SINEW_API sinew_status sinew_body_set_target_transform(sinew_body_id body, const
 SINEW_API sinew_status sinew_body_apply_force(sinew_body_id body, sinew_vec3 force, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 impulse, sinew_vec3 world_point);
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
+/** Wakes the body's island (a sleeping body is not simulated until something wakes it). */
+SINEW_API sinew_status sinew_body_wake(sinew_body_id body);
+/** *out = 1 if the body is awake, 0 if asleep (static bodies report 0). */
+SINEW_API sinew_status sinew_body_is_awake(sinew_body_id body, int* out);
+/** kg: the dynamic body's mass (0 for static and kinematic bodies). */
+SINEW_API sinew_status sinew_body_get_mass(sinew_body_id body, float* out);
+/** Multiplies the world's gravity for this body (finite; 0 floats, -1 rises), from the next step. Wakes it. */
+SINEW_API sinew_status sinew_body_set_gravity_scale(sinew_body_id body, float scale);
+/** 1/s, >= 0: velocity damping, v *= 1 / (1 + h c) each step, from the next step. Wakes the body. */
+SINEW_API sinew_status sinew_body_set_damping(sinew_body_id body, float linear, float angular);
 /** Takes effect at the next step: contacts of pairs it now excludes are gone after it, pairs it admits
  *  meet (the body is woken). Not during a step (SINEW_ERROR_IN_STEP). */
 SINEW_API sinew_status sinew_body_set_filter(sinew_body_id body, sinew_filter filter);
