@@ -176,6 +176,7 @@ void RigidSystem::destroy_body(BodyId id) {
     state_.v[s].setZero();
     state_.w[s].setZero();
     auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
+    restore_disabled();  // its indices are into contacts_ as it is now
     contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
     prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
     slots_.release(s);

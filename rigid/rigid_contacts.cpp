@@ -3,6 +3,7 @@
 #include "rigid/rigid_system.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
@@ -19,7 +20,50 @@ bool manifold_less(const ContactManifold& x, const ContactManifold& y) {
 }
 }  // namespace
 
+void RigidSystem::restore_disabled() {
+    for (const auto& [i, count] : disabled_) {
+        if (i >= contacts_.size()) continue;
+        Manifold& m = contacts_[i].manifold;
+        m.count = count;
+        for (int k = 0; k < count; ++k) {
+            m.points[k].normal_impulse = 0;
+            m.points[k].tangent_impulse[0] = m.points[k].tangent_impulse[1] = 0;
+        }
+    }
+    disabled_.clear();
+}
+
+void RigidSystem::apply_pre_solve() {
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+        ContactManifold& c = contacts_[i];
+        if (c.manifold.count == 0) continue;
+        const std::uint32_t a = c.body_a, b = c.body_b;
+        // The combined material afresh: a change the callback made last step holds for that step only.
+        c.friction = std::sqrt(material_[a].friction * material_[b].friction);
+        c.restitution = std::max(material_[a].restitution, material_[b].restitution);
+        PreSolveContact p;
+        p.body_a = {a, slots_.generation(a)};
+        p.body_b = {b, slots_.generation(b)};
+        p.normal = c.manifold.normal;
+        p.point_count = c.manifold.count;
+        for (int k = 0; k < c.manifold.count; ++k) {
+            p.points[k] = c.manifold.points[k].position;
+            p.depths[k] = c.manifold.points[k].depth;
+        }
+        p.friction = c.friction;
+        p.restitution = c.restitution;
+        if (!pre_solve_(p)) {
+            disabled_.emplace_back(std::uint32_t(i), c.manifold.count);
+            c.manifold.count = 0;
+            continue;
+        }
+        if (std::isfinite(p.friction) && p.friction >= 0) c.friction = p.friction;
+        if (std::isfinite(p.restitution)) c.restitution = std::clamp(p.restitution, Real(0), Real(1));
+    }
+}
+
 void RigidSystem::detect_collisions(Real h) {
+    restore_disabled();
     const Real margin = settings_.contact_margin;
     // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
     for (std::uint32_t s = 0; s < slots_.size(); ++s) {
@@ -127,6 +171,7 @@ void RigidSystem::detect_collisions(Real h) {
     for (const PairWork& w : pair_work_)
         if (!w.asleep && w.count > 0 && w.wakes != kNoSlot) wake_island(w.wakes);
     std::fill(reshaped_.begin(), reshaped_.end(), std::uint8_t(0));
+    if (pre_solve_) apply_pre_solve();
 }
 
 void RigidSystem::detect_pair(std::size_t i, Real h, Real margin, int worker) {

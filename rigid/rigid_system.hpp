@@ -5,6 +5,7 @@
 // list; BodyId's generation detects stale handles.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,19 @@ namespace sinew {
 struct RigidError : std::invalid_argument {
     using std::invalid_argument::invalid_argument;
 };
+
+/// What a pre-solve callback (RigidSystem::set_pre_solve) sees of one touching manifold, and may change.
+struct PreSolveContact {
+    BodyId body_a, body_b;
+    Vec3 normal = Vec3::UnitY();  ///< unit, from A to B
+    int point_count = 0;          ///< 1..4
+    Vec3 points[Manifold::kMaxPoints];
+    Real depths[Manifold::kMaxPoints] = {0, 0, 0, 0};  ///< m, > 0 penetrating, < 0 apart (speculative)
+    Real friction = 0;     ///< the combined value; a change holds for this step (finite, >= 0)
+    Real restitution = 0;  ///< the combined value; a change holds for this step (clamped to [0, 1])
+};
+/// Returns false to leave the contact out of this step's solve (a one-way platform letting a body through).
+using PreSolveFn = std::function<bool(PreSolveContact&)>;
 
 /// A manifold between two bodies, with the combined material, as solvers and coupling layers read it.
 struct ContactManifold {
@@ -143,6 +157,12 @@ public:
     /// Bodies a and b never collide while `ignore` holds (a soft body's proxy and the bodies the soft body
     /// is attached to). Forgotten when either body is destroyed. Throws RigidError for a bad id.
     void ignore_pair(BodyId a, BodyId b, bool ignore);
+    /// Called once per touching manifold each step, after collision detection and before the solve, on
+    /// the thread that steps the world, in the contacts' order (sorted by body pair): deterministic. A
+    /// contact it disables has no points for the rest of the step (the solvers, islands and contact
+    /// queries skip it) and starts the next step cold. It must not create, destroy or move bodies. An empty
+    /// function removes it.
+    void set_pre_solve(PreSolveFn fn) { pre_solve_ = std::move(fn); }
     const CollisionFilter& filter(BodyId id) const;
     /// Takes effect at the next step's broad phase: pairs it now excludes lose their contacts then, pairs
     /// it now admits are found (the body is woken, so a resting pair meets again).
@@ -324,6 +344,12 @@ private:
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
     std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
+    PreSolveFn pre_solve_;
+    /// Manifolds the pre-solve callback disabled this step: index into contacts_ and its point count,
+    /// given back (impulses cleared) when the next detection starts, so the contact cache sees them whole.
+    std::vector<std::pair<std::uint32_t, int>> disabled_;
+    void restore_disabled();
+    void apply_pre_solve();
     std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
     /// Per candidate pair of this step's detection: its cached manifolds in prev_contacts_, whether it
     /// sleeps, the slot it wakes (or kNoSlot), and where its manifolds went in detect_out_.

@@ -3,6 +3,7 @@
 // naming the argument, and leaves the world as it was.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -384,4 +385,66 @@ TEST_CASE("C API: body control: sleep and wake, mass, gravity scale, damping", "
     stale.generation += 3;
     CHECK(sinew_body_wake(stale) == SINEW_ERROR_STALE_ID);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+namespace {
+// A one-way platform for the C test: keep the contact only while the other body is above the top face.
+struct OneWay {
+    sinew_body_id platform;
+    int disabled = 0;
+};
+int one_way(void* context, sinew_presolve_contact* c) {
+    OneWay* o = static_cast<OneWay*>(context);
+    const bool a_is = c->body_a.index == o->platform.index && c->body_a.generation == o->platform.generation;
+    const bool b_is = c->body_b.index == o->platform.index && c->body_b.generation == o->platform.generation;
+    if (!a_is && !b_is) return 1;
+    sinew_transform t;
+    if (sinew_body_get_transform(a_is ? c->body_b : c->body_a, &t) != SINEW_OK) return 1;
+    const int keep = t.p.y - 0.2f > 2.0f - 0.05f;
+    o->disabled += keep ? 0 : 1;
+    return keep;
+}
+}  // namespace
+
+TEST_CASE("C API: a one-way platform through the pre-solve callback", "[capi][presolve]") {
+    sinew_world_id w = make_world();
+    sinew_body_def slab = sinew_body_def_default();
+    slab.type = SINEW_BODY_STATIC;
+    slab.shape.half_extents = {2, 0.1f, 2};
+    slab.transform.p.y = 1.9f;
+    OneWay o;
+    REQUIRE(sinew_body_create(w, &slab, &o.platform) == SINEW_OK);
+    sinew_body_def ball = sinew_body_def_default();
+    ball.shape.type = SINEW_SHAPE_SPHERE;
+    ball.shape.radius = 0.2f;
+    ball.transform.p.y = 0.5f;
+    ball.linear_velocity = {0, 8, 0};
+    sinew_body_id b;
+    REQUIRE(sinew_body_create(w, &ball, &b) == SINEW_OK);
+    REQUIRE(sinew_world_set_presolve(w, one_way, &o) == SINEW_OK);
+    float highest = 0;
+    sinew_transform t;
+    for (int i = 0; i < 180; ++i) {
+        REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+        REQUIRE(sinew_body_get_transform(b, &t) == SINEW_OK);
+        highest = std::max(highest, t.p.y);
+    }
+    CHECK(o.disabled > 0);
+    CHECK(highest == Approx(3.76).margin(0.05));
+    CHECK(t.p.y == Approx(2.2).margin(0.01));
+    // Removed: the next ball thrown from below is stopped by the slab.
+    REQUIRE(sinew_world_set_presolve(w, nullptr, nullptr) == SINEW_OK);
+    sinew_body_id b2;
+    ball.transform.p.x = 1.0f;
+    REQUIRE(sinew_body_create(w, &ball, &b2) == SINEW_OK);
+    float top = 0;
+    for (int i = 0; i < 60; ++i) {
+        REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+        REQUIRE(sinew_body_get_transform(b2, &t) == SINEW_OK);
+        top = std::max(top, t.p.y);
+    }
+    CHECK(top < 1.81f);
+    sinew_world_id stale = w;
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+    CHECK(sinew_world_set_presolve(stale, one_way, &o) == SINEW_ERROR_STALE_ID);
 }

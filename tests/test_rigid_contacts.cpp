@@ -3,6 +3,7 @@
 // tower of seed 001 figure 1, and sleeping.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include "engine/world/world.hpp"
@@ -417,4 +418,82 @@ TEST_CASE("a kinematic platform moving at constant speed carries a resting box w
     CHECK(vx_min == Approx(speed).epsilon(0.01));
     CHECK(vx_max == Approx(speed).epsilon(0.01));
     CHECK(w.rigid().transform(box).p.y() == Approx(0.45).margin(0.01));  // still on it
+}
+
+// ---- the pre-solve callback (RigidSystem::set_pre_solve) ------------------------------------------
+
+TEST_CASE("a one-way platform through the pre-solve callback: a ball from below passes, then lands on it", "[rigid][presolve]") {
+    // A static slab whose top face is y = 2; a ball (r = 0.2) thrown up from y = 0.5 at 8 m/s rises to
+    // 0.5 + 64 / 19.62 = 3.76 m, well past the slab, and falls back onto it.
+    World w;
+    BodyDef slab;
+    slab.type = BodyType::Static;
+    slab.shape = make_box(Vec3(2, Real(0.1), 2));
+    slab.pose.p = Vec3(0, Real(1.9), 0);
+    const BodyId platform = w.rigid().create_body(slab);
+    BodyDef ball;
+    ball.shape = make_sphere(Real(0.2));
+    ball.pose.p = Vec3(0, Real(0.5), 0);
+    ball.linear_velocity = Vec3(0, 8, 0);
+    const BodyId b = w.rigid().create_body(ball);
+    int calls = 0, disabled = 0;
+    w.rigid().set_pre_solve([&](PreSolveContact& c) {
+        ++calls;
+        const bool ours = c.body_a == platform || c.body_b == platform;
+        if (!ours) return true;
+        // Keep the contact only while the ball is above the top face (less a tolerance for resting sag).
+        const BodyId other = c.body_a == platform ? c.body_b : c.body_a;
+        const bool above = w.rigid().transform(other).p.y() - Real(0.2) > Real(2) - Real(0.05);
+        disabled += above ? 0 : 1;
+        return above;
+    });
+    Real highest = 0;
+    for (int i = 0; i < 180; ++i) {
+        w.step();
+        highest = std::max(highest, w.rigid().transform(b).p.y());
+    }
+    CHECK(calls > 0);
+    CHECK(disabled > 0);                            // it met the slab from below and was let through
+    CHECK(highest == Approx(3.76).margin(0.05));    // nothing slowed it on the way up
+    CHECK(w.rigid().transform(b).p.y() == Approx(2.2).margin(0.01));  // resting on top after 3 s
+    CHECK(w.rigid().linear_velocity(b).norm() < Real(0.01));
+
+    // Without the callback the slab stops it from below.
+    World plain;
+    plain.rigid().create_body(slab);
+    const BodyId b2 = plain.rigid().create_body(ball);
+    Real top = 0;
+    for (int i = 0; i < 60; ++i) {
+        plain.step();
+        top = std::max(top, plain.rigid().transform(b2).p.y());
+    }
+    CHECK(top < Real(1.8) + Real(0.01));
+}
+
+TEST_CASE("the pre-solve callback changes friction for the step: a box that sticks on a slope slides at g sin", "[rigid][presolve]") {
+    // A 20 degree slope with friction 0.6 holds a box (tan 20 = 0.36 < 0.6); friction 0 from the callback
+    // makes it slide down at g sin 20 = 3.36 m/s^2.
+    for (const bool slippery : {false, true}) {
+        World w;
+        const Real theta = Real(20 * kPi / 180);
+        BodyDef ramp;
+        ramp.type = BodyType::Static;
+        ramp.shape = make_box(Vec3(20, Real(0.5), 5));
+        ramp.pose.q = Quat(Eigen::AngleAxis<Real>(theta, Vec3::UnitZ()));
+        ramp.pose.p = ramp.pose.q * Vec3(0, Real(-0.5), 0);
+        w.rigid().create_body(ramp);
+        BodyDef box;
+        box.shape = make_box(Vec3::Constant(Real(0.25)));
+        box.pose.q = ramp.pose.q;
+        box.pose.p = ramp.pose.q * Vec3(0, Real(0.25), 0);
+        const BodyId b = w.rigid().create_body(box);
+        if (slippery) w.rigid().set_pre_solve([](PreSolveContact& c) { c.friction = 0; return true; });
+        for (int i = 0; i < 30; ++i) w.step();
+        const Vec3 v0 = w.rigid().linear_velocity(b);
+        for (int i = 0; i < 30; ++i) w.step();
+        const Real a = (w.rigid().linear_velocity(b) - v0).norm() / Real(0.5);
+        INFO("slippery " << slippery << " acceleration " << a);
+        if (slippery) CHECK(a == Approx(9.81 * std::sin(20 * kPi / 180)).epsilon(0.02));
+        else CHECK(a < Real(0.01));
+    }
 }

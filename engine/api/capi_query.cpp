@@ -130,6 +130,38 @@ sinew_status sinew_world_set_gravity(sinew_world_id world, sinew_vec3 gravity) {
     });
 }
 
+sinew_status sinew_world_set_presolve(sinew_world_id world, sinew_presolve_fn* fn, void* context) {
+    const char* name = "sinew_world_set_presolve";
+    return guarded(name, [&] {
+        World* w = find_world(world, name);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, name)) return s;
+        if (!fn) {
+            w->rigid().set_pre_solve({});
+            return SINEW_OK;
+        }
+        const std::uint32_t packed = pack_world(world);
+        w->rigid().set_pre_solve([fn, context, packed](PreSolveContact& p) {
+            sinew_presolve_contact c{};
+            c.body_a = {packed, p.body_a.index, p.body_a.generation};
+            c.body_b = {packed, p.body_b.index, p.body_b.generation};
+            c.normal = to_c(p.normal);
+            c.point_count = p.point_count;
+            for (int k = 0; k < p.point_count; ++k) {
+                c.points[k] = to_c(p.points[k]);
+                c.depths[k] = float(p.depths[k]);
+            }
+            c.friction = float(p.friction);
+            c.restitution = float(p.restitution);
+            const int keep = fn(context, &c);
+            p.friction = Real(c.friction);
+            p.restitution = Real(c.restitution);
+            return keep != 0;
+        });
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_body_set_material(sinew_body_id body, float friction, float restitution) {
     const char* fn = "sinew_body_set_material";
     return guarded(fn, [&] {

@@ -511,6 +511,25 @@ SINEW_API sinew_status sinew_world_overlap_shape(sinew_world_id world, const sin
 SINEW_API sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, int velocity_iterations);
 SINEW_API sinew_status sinew_world_set_gravity(sinew_world_id world, sinew_vec3 gravity);
 
+/* A touching pair of rigid bodies as the pre-solve callback sees it, and may change for this step. */
+typedef struct sinew_presolve_contact {
+    sinew_body_id body_a, body_b;
+    sinew_vec3 normal;     /* unit, from body_a to body_b */
+    int point_count;       /* 1..4 */
+    sinew_vec3 points[4];  /* m, world */
+    float depths[4];       /* m, > 0 penetrating, < 0 apart (a speculative point) */
+    float friction;        /* the combined value; set it (finite, >= 0) to change it for this step */
+    float restitution;     /* the combined value; set it to change it for this step (clamped to [0, 1]) */
+} sinew_presolve_contact;
+/** Return 0 to leave the contact out of this step (it starts the next one cold), non-zero to keep it. */
+typedef int sinew_presolve_fn(void* context, sinew_presolve_contact* contact);
+/** The pre-solve callback (NULL removes it): called once per touching pair every step, after collision
+ *  detection and before the solve, on the thread that called sinew_world_step, in the same order every
+ *  run (sorted by body pair), so results stay deterministic. It may read bodies (transforms,
+ *  velocities, user data) but must not change the world. One-way platforms, conveyor belts (friction),
+ *  surfaces that bounce only some bodies. */
+SINEW_API sinew_status sinew_world_set_presolve(sinew_world_id world, sinew_presolve_fn* fn, void* context);
+
 /* How rigid and soft bodies act on each other (docs/coupling.md). */
 typedef enum sinew_coupling {
     SINEW_COUPLING_ONE_WAY = 0, /* rigid bodies push soft ones, nothing comes back (default) */
