@@ -40,6 +40,9 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         def.angular_damping < 0)
         bad("damping must be finite and >= 0");
     if (!is_finite(def.gravity_scale)) bad("gravity_scale must be finite");
+    if (def.sensor && (def.shape.type == ShapeType::Plane || def.shape.type == ShapeType::TriangleMesh))
+        bad(std::string("a sensor's shape must be a sphere, box, capsule, hull or compound, got a ") +
+            shape_type_name(def.shape.type));
     if (def.type != BodyType::Static && !def.shape.can_be_dynamic())
         bad(std::string("a ") + shape_type_name(def.shape.type) + " can only belong to a static body");
 
@@ -70,6 +73,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         shape_.emplace_back();
         material_.emplace_back();
         filter_.emplace_back();
+        sensor_.push_back(0);
         mass_.push_back(0);
         body_inv_mass_.push_back(0);
         inv_inertia_local_.emplace_back();
@@ -101,6 +105,8 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     shape_[slot] = def.shape;
     material_[slot] = def.material;
     filter_[slot] = def.filter;
+    sensor_[slot] = def.sensor ? 1 : 0;
+    if (def.sensor) sensor_slots_.insert(std::lower_bound(sensor_slots_.begin(), sensor_slots_.end(), slot), slot);
     ignored_changed_ = true;  // the pair list is rebuilt with this body's filter
     mass_[slot] = dynamic ? mp.mass : 0;
     body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
@@ -171,6 +177,10 @@ void RigidSystem::destroy_body(BodyId id) {
     }
     tree_.destroy(proxy_[s]);
     proxy_[s] = DynamicTree::kNull;
+    if (sensor_[s]) {
+        sensor_[s] = 0;
+        sensor_slots_.erase(std::lower_bound(sensor_slots_.begin(), sensor_slots_.end(), s));
+    }
     shape_[s] = Shape{};
     state_.inv_mass[s] = 0;
     state_.v[s].setZero();
@@ -372,6 +382,7 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
     material_[id.index].friction = m.friction;
     material_[id.index].restitution = m.restitution;
 }
+bool RigidSystem::is_sensor(BodyId id) const { check(id, "is_sensor"); return sensor_[id.index] != 0; }
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
 const CollisionFilter& RigidSystem::filter(BodyId id) const { check(id, "filter"); return filter_[id.index]; }
 void RigidSystem::set_filter(BodyId id, const CollisionFilter& f) {

@@ -52,6 +52,10 @@ struct BodyDef {
     Real gravity_scale = 1;
     bool allow_sleep = true;
     CollisionFilter filter;          ///< which bodies this one may touch (engine/core/collision_filter.hpp)
+    /// A sensor (trigger volume) detects the bodies that overlap it and never touches them: no contacts, no
+    /// soft-body collisions, not found by ray casts or overlap queries. Its shape must be a sphere, box,
+    /// capsule, hull or compound. Fixed at creation. What it detects: World::sensor_events().
+    bool sensor = false;
     std::uint64_t user_data = 0;
 };
 

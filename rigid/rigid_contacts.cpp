@@ -84,6 +84,7 @@ void RigidSystem::detect_collisions(Real h) {
             std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
             if (a > b) std::swap(a, b);
             if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
+            if (sensor_[a] | sensor_[b]) continue;  // sensors detect, never touch
             if (joints_->filters_pair(a, b)) continue;
             if (!should_collide(filter_[a], filter_[b])) continue;
             if (!ignored_pairs_.empty() && std::binary_search(ignored_pairs_.begin(), ignored_pairs_.end(), pair_key(a, b)))

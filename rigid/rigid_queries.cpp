@@ -13,6 +13,7 @@ bool RigidSystem::ray_cast(const Vec3& from, const Vec3& to, RayResult& out) con
     bool found = false;
     tree_.ray_query(from, to, [&](std::int32_t proxy, Real max_fraction) {
         const std::uint32_t slot = tree_.user_data(proxy);
+        if (sensor_[slot]) return max_fraction;
         RayHit hit;
         if (!sinew::ray_cast(shape_[slot], origin_transform(slot), from, to, max_fraction, hit)) return max_fraction;
         // Ties (the same fraction on two bodies) go to the lower slot, so the answer is deterministic.
@@ -29,6 +30,7 @@ void RigidSystem::overlap_aabb(const Aabb& box, std::vector<BodyId>& out) const 
     out.clear();
     tree_.query(box, [&](std::int32_t proxy) {
         const std::uint32_t slot = tree_.user_data(proxy);
+        if (sensor_[slot]) return true;
         if (shape_[slot].bounds(origin_transform(slot)).overlaps(box)) out.push_back(id_of_slot(slot));
         return true;
     });
@@ -45,6 +47,7 @@ void RigidSystem::overlap_shape(const Shape& shape, const Transform& xf, std::ve
     thread_local ManifoldList manifolds;  // reused: a query allocates nothing once warm
     tree_.query(shape.bounds(xf), [&](std::int32_t proxy) {
         const std::uint32_t slot = tree_.user_data(proxy);
+        if (sensor_[slot]) return true;
         manifolds.clear();
         collide(shape, xf, shape_[slot], origin_transform(slot), 0, manifolds);
         bool touching = false;

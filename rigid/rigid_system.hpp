@@ -168,6 +168,11 @@ public:
     /// it now admits are found (the body is woken, so a resting pair meets again).
     void set_filter(BodyId id, const CollisionFilter& filter);
     const CollisionFilter& slot_filter(std::uint32_t slot) const { return filter_[slot]; }
+    /// A sensor (BodyDef::sensor): it is in the broad phase for the sensor queries only.
+    bool is_sensor(BodyId id) const;
+    bool slot_sensor(std::uint32_t slot) const { return sensor_[slot] != 0; }
+    /// The live sensors' slots, ascending.
+    const std::vector<std::uint32_t>& sensor_slots() const { return sensor_slots_; }
     bool awake(BodyId id) const;
     /// Dynamic bodies awake now.
     std::size_t awake_count() const;
@@ -193,7 +198,7 @@ public:
     /// The sources in solve order: the joints first.
     const std::vector<ConstraintRows*>& row_sources() const { return row_sources_; }
 
-    // ---- queries (rigid/rigid_queries.cpp); all bodies count, asleep or not -------------------------
+    // ---- queries (rigid/rigid_queries.cpp); all bodies but sensors count, asleep or not -------------
     struct RayResult {
         BodyId body;
         RayHit hit;
@@ -207,10 +212,19 @@ public:
     /// be a sphere, box, capsule, hull or compound (throws RigidError otherwise).
     void overlap_shape(const Shape& shape, const Transform& xf, std::vector<BodyId>& out) const;
 
-    /// Calls f(slot) for every live body whose fattened broad-phase box overlaps `box` (coupling layers
-    /// find the rigid shapes near a soft body this way).
+    /// Calls f(slot) for every live body but the sensors whose fattened broad-phase box overlaps `box`
+    /// (coupling layers find the rigid shapes near a soft body this way).
     template <class F>
     void query_bodies(const Aabb& box, F&& f) const {
+        tree_.query(box, [&](std::int32_t proxy) {
+            const std::uint32_t slot = tree_.user_data(proxy);
+            if (!sensor_[slot]) f(slot);
+            return true;
+        });
+    }
+    /// The same, sensors included (the sensor queries).
+    template <class F>
+    void query_all_bodies(const Aabb& box, F&& f) const {
         tree_.query(box, [&](std::int32_t proxy) {
             f(tree_.user_data(proxy));
             return true;
@@ -311,6 +325,8 @@ private:
     std::vector<Shape> shape_;
     std::vector<Material> material_;
     std::vector<CollisionFilter> filter_;
+    std::vector<std::uint8_t> sensor_;          ///< 1 for a sensor (BodyDef::sensor)
+    std::vector<std::uint32_t> sensor_slots_;   ///< the live sensors, ascending
     std::vector<Real> mass_;
     std::vector<Real> body_inv_mass_;     ///< the body's own inverse mass (0 if not dynamic)
     std::vector<Mat3> inv_inertia_local_;

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <vector>
+#include <string>
 
 #include "tests/test_c_api_util.hpp"
 
@@ -218,4 +219,91 @@ TEST_CASE("C API events: bad input", "[capi][events][errors]") {
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
     CHECK(sinew_world_get_events(w, &e) == SINEW_ERROR_STALE_ID);
     CHECK_THAT(std::string(sinew_last_error()), Catch::Contains("destroyed"));
+}
+
+TEST_CASE("C API sensors: a ball falling through a trigger box gives one begin and one end, and a query in between", "[capi][events][sensor]") {
+    sinew_world_id w = make_world();
+    sinew_body_def sd = sinew_body_def_default();
+    sd.type = SINEW_BODY_STATIC;
+    sd.is_sensor = 1;
+    sd.transform.p = {0, 5, 0};  // a 1 m cube, top face at y = 5.5
+    sinew_body_id sensor;
+    REQUIRE(sinew_body_create(w, &sd, &sensor) == SINEW_OK);
+    sinew_body_def bd = sinew_body_def_default();
+    bd.shape.type = SINEW_SHAPE_SPHERE;
+    bd.shape.radius = 0.25f;
+    bd.transform.p = {0, 10, 0};
+    bd.allow_sleep = 0;
+    bd.user_data = 7;
+    sinew_body_id ball;
+    REQUIRE(sinew_body_create(w, &bd, &ball) == SINEW_OK);
+    int begins = 0, ends = 0;
+    uint64_t begin_step = 0, end_step = 0;
+    int inside_while_overlapping = 0;
+    for (int i = 0; i < 90; ++i) {
+        const sinew_events e = step_events(w);
+        for (int k = 0; k < e.sensor_begin_count; ++k) {
+            CHECK(same(e.sensor_begin[k].sensor, sensor));
+            CHECK(e.sensor_begin[k].is_soft == 0);
+            CHECK(same(e.sensor_begin[k].body, ball));
+            begin_step = e.sensor_begin[k].step;
+            ++begins;
+        }
+        for (int k = 0; k < e.sensor_end_count; ++k) {
+            CHECK(same(e.sensor_end[k].body, ball));
+            end_step = e.sensor_end[k].step;
+            ++ends;
+        }
+        int count = -1;
+        sinew_sensor_event now[2];
+        REQUIRE(sinew_sensor_get_overlaps(sensor, now, 2, &count) == SINEW_OK);
+        if (count == 1 && same(now[0].body, ball)) ++inside_while_overlapping;
+    }
+    CHECK(begins == 1);
+    CHECK(ends == 1);
+    // Enters after falling 4.25 m, leaves after 5.75 m (within a step, as the C++ test argues).
+    CHECK(std::abs(float(begin_step) * kH - std::sqrt(2 * 4.25f / kG)) <= kH);
+    CHECK(std::abs(float(end_step) * kH - std::sqrt(2 * 5.75f / kG)) <= kH);
+    CHECK(inside_while_overlapping == int(end_step - begin_step));
+    // Misuse: NULL count, negative capacity, NULL buffer with capacity, a body that is no sensor, stale id.
+    int count = 0;
+    CHECK(sinew_sensor_get_overlaps(sensor, nullptr, 0, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_sensor_get_overlaps(sensor, nullptr, -1, &count) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_sensor_get_overlaps(sensor, nullptr, 3, &count) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_sensor_get_overlaps(ball, nullptr, 0, &count) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("not a sensor") != std::string::npos);
+    REQUIRE(sinew_body_destroy(ball) == SINEW_OK);
+    CHECK(sinew_sensor_get_overlaps(ball, nullptr, 0, &count) == SINEW_ERROR_STALE_ID);
+    // Body definition misuse leaves the world unchanged.
+    const std::vector<float> before = fingerprint(w);
+    sinew_body_def bad = sinew_body_def_default();
+    bad.is_sensor = 2;
+    sinew_body_id id;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    bad = sinew_body_def_default();
+    bad.gravity_scale = NAN;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("gravity_scale") != std::string::npos);
+    bad = sinew_body_def_default();
+    bad.allow_sleep = -1;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(fingerprint(w) == before);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}
+
+TEST_CASE("C API body def: gravity_scale and allow_sleep are honoured at creation", "[capi][events]") {
+    sinew_world_id w = make_world();
+    sinew_body_def bd = sinew_body_def_default();
+    bd.gravity_scale = 0;
+    bd.allow_sleep = 0;
+    sinew_body_id floating;
+    REQUIRE(sinew_body_create(w, &bd, &floating) == SINEW_OK);
+    for (int i = 0; i < 120; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(floating, &t) == SINEW_OK);
+    CHECK(t.p.y == 0.0f);  // no gravity, nothing else: it stays where it was made
+    int awake = 0;
+    REQUIRE(sinew_body_is_awake(floating, &awake) == SINEW_OK);
+    CHECK(awake == 1);  // at rest for 2 s, yet never asleep
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }

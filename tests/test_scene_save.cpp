@@ -340,3 +340,21 @@ TEST_CASE("collision filters load from a scene and survive a save", "[scene][sav
     CHECK(back->rigid().filter(back_ids[1]) == CollisionFilter{4, 0xFFFFFFFEu, -3});
     CHECK(back->soft().body(back->soft().bodies().at(0)).def.filter == CollisionFilter{1, 1, 0});
 }
+
+TEST_CASE("a sensor loads from a scene and survives a save", "[scene][save][sensor]") {
+    const char* text = R"({"format":"sinew-scene","version":1,"name":"sensor",
+        "bodies":[{"name":"trigger","type":"static","shape":{"type":"box","half_extents":[1,1,1]},"sensor":true},
+                  {"name":"ball","shape":{"type":"sphere","radius":0.2},"position":[0,0.5,0]}]})";
+    const auto world = build_world(parse_scene_string(text, "sensor.json"));
+    const std::vector<BodyId> ids = world->rigid().bodies();
+    CHECK(world->rigid().is_sensor(ids[0]));
+    CHECK_FALSE(world->rigid().is_sensor(ids[1]));
+    world->step();
+    REQUIRE(world->sensor_events().size() == 1);  // the ball starts inside
+    const std::string path = temp_path("sensor.json");
+    save_scene_file(*world, path);
+    const auto back = build_world(parse_scene_file(path));
+    const std::vector<BodyId> back_ids = back->rigid().bodies();
+    CHECK(back->rigid().is_sensor(back_ids[0]));
+    CHECK_FALSE(back->rigid().is_sensor(back_ids[1]));
+}

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <stdexcept>
 #include <cstdint>
@@ -13,6 +14,7 @@
 
 #include "engine/world/scene.hpp"
 #include "engine/world/world.hpp"
+#include "soft/soft_builders.hpp"
 
 using namespace sinew;
 
@@ -458,4 +460,175 @@ TEST_CASE("a parallel region passes a stage's exception to the caller and stays 
         });
         CHECK(std::count(twice.begin(), twice.end(), 2) == 1000);
     }
+}
+
+// ---- sensors (engine/world/sensor_tracker.hpp) -----------------------------------------------------------
+
+namespace {
+
+struct SensorScene {
+    std::unique_ptr<World> world;
+    BodyId sensor, ball;
+};
+
+// A static 1 m sensor cube centred at y = 5 and a ball of radius 0.25 m dropped from rest at y = 10.
+SensorScene sensor_scene(const CollisionFilter& ball_filter = {}) {
+    WorldSettings ws;
+    ws.rigid.sleeping = false;
+    SensorScene s;
+    s.world = std::make_unique<World>(ws);
+    BodyDef sd;
+    sd.type = BodyType::Static;
+    sd.shape = make_box(Vec3(0.5, 0.5, 0.5));
+    sd.pose.p = Vec3(0, 5, 0);
+    sd.sensor = true;
+    sd.filter.category = 2;
+    s.sensor = s.world->rigid().create_body(sd);
+    BodyDef bd;
+    bd.shape = make_sphere(Real(0.25));
+    bd.pose.p = Vec3(0, 10, 0);
+    bd.filter = ball_filter;
+    s.ball = s.world->rigid().create_body(bd);
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("a ball falling through a sensor begins and ends one overlap at the analytic times", "[world][sensor]") {
+    SensorScene s = sensor_scene();
+    World& w = *s.world;
+    const double h = double(w.settings().time_step), g = 9.81;
+    std::vector<SensorEvent> events;
+    for (int i = 0; i < 90; ++i) {
+        w.step();
+        events.insert(events.end(), w.sensor_events().begin(), w.sensor_events().end());
+    }
+    REQUIRE(events.size() == 2);
+    CHECK(events[0].begin);
+    CHECK_FALSE(events[1].begin);
+    for (const SensorEvent& e : events) {
+        CHECK(e.overlap.sensor == s.sensor);
+        CHECK_FALSE(e.overlap.soft);
+        CHECK(e.overlap.body == s.ball);
+    }
+    // The ball's surface enters the cube's top face (y = 5.5) after falling 4.25 m and its top leaves the
+    // bottom face (y = 4.5) after 5.75 m. An event is found at the end of the first step that ends with
+    // the overlap (or without it), so it falls within one step of the exact time.
+    const double t_in = std::sqrt(2 * 4.25 / g), t_out = std::sqrt(2 * 5.75 / g);
+    CHECK(std::abs(double(events[0].step) * h - t_in) <= h);
+    CHECK(std::abs(double(events[1].step) * h - t_out) <= h);
+    // No contact response: the ball falls freely through (v = g t within 1 %).
+    const double t = 90 * h;
+    CHECK(std::abs(-double(w.rigid().linear_velocity(s.ball).y()) - g * t) <= 0.01 * g * t);
+    std::vector<SensorOverlap> now;
+    w.sensors().overlaps(s.sensor, now);
+    CHECK(now.empty());
+}
+
+TEST_CASE("a sensor reports what overlaps it now, and its filter decides what it sees", "[world][sensor]") {
+    SensorScene s = sensor_scene();
+    World& w = *s.world;
+    w.rigid().set_transform(s.ball, {Vec3(0, 5.2, 0), Quat::Identity()});
+    w.rigid().set_velocity(s.ball, Vec3::Zero(), Vec3::Zero());
+    w.step();
+    REQUIRE(w.sensor_events().size() == 1);
+    std::vector<SensorOverlap> now;
+    w.sensors().overlaps(s.sensor, now);
+    REQUIRE(now.size() == 1);
+    CHECK(now[0].body == s.ball);
+    w.sensors().overlaps(s.ball, now);  // not a sensor
+    CHECK(now.empty());
+
+    // A ball whose mask leaves out the sensor's category passes unseen.
+    CollisionFilter f;
+    f.mask = ~std::uint32_t(2);
+    SensorScene hidden = sensor_scene(f);
+    for (int i = 0; i < 90; ++i) {
+        hidden.world->step();
+        CHECK(hidden.world->sensor_events().empty());
+    }
+    CHECK(hidden.world->rigid().transform(hidden.ball).p.y() < 3);
+}
+
+TEST_CASE("a sensor is not touched, cast or queried, and ends the overlap of a destroyed body", "[world][sensor]") {
+    SensorScene s = sensor_scene();
+    World& w = *s.world;
+    RigidSystem& r = w.rigid();
+    RigidSystem::RayResult hit;
+    CHECK_FALSE(r.ray_cast(Vec3(0, 8, 0), Vec3(0, 0, 0), hit));  // only the sensor lies under the ball
+    std::vector<BodyId> ids;
+    r.overlap_aabb({Vec3(-1, 4, -1), Vec3(1, 6, 1)}, ids);
+    CHECK(ids.empty());
+    r.overlap_shape(make_sphere(Real(0.3)), {Vec3(0, 5, 0), Quat::Identity()}, ids);
+    CHECK(ids.empty());
+    // A ball resting inside the sensor (gravity off) stays inside: nothing pushes it out.
+    r.set_transform(s.ball, {Vec3(0.2, 5, 0), Quat::Identity()});
+    r.set_gravity_scale(s.ball, 0);
+    r.set_velocity(s.ball, Vec3::Zero(), Vec3::Zero());
+    w.step();
+    REQUIRE(w.sensor_events().size() == 1);
+    for (int i = 0; i < 30; ++i) w.step();
+    CHECK((r.transform(s.ball).p - Vec3(0.2, 5, 0)).norm() < Real(1e-6));
+    CHECK(r.contacts().empty());
+    r.destroy_body(s.ball);
+    w.step();
+    REQUIRE(w.sensor_events().size() == 1);
+    CHECK_FALSE(w.sensor_events()[0].begin);
+    CHECK(w.sensor_events()[0].overlap.body == s.ball);  // stale now
+    // A plane or a mesh cannot be a sensor.
+    BodyDef bad;
+    bad.type = BodyType::Static;
+    bad.shape = make_plane(Vec3::UnitY(), 0);
+    bad.sensor = true;
+    CHECK_THROWS_WITH(r.create_body(bad), Catch::Contains("sensor's shape"));
+}
+
+TEST_CASE("a cloth falling through a sensor begins and ends one soft overlap", "[world][sensor]") {
+    SensorScene s = sensor_scene();
+    World& w = *s.world;
+    w.rigid().destroy_body(s.ball);
+    ClothGridDesc d;
+    d.nx = d.ny = 5;
+    d.origin = Vec3(-0.3, 8, -0.3);
+    d.edge_u = Vec3(0.6, 0, 0);
+    d.edge_v = Vec3(0, 0, 0.6);
+    const SoftBodyId cloth = w.soft().create_body(make_cloth_grid(d));
+    std::vector<SensorEvent> events;
+    for (int i = 0; i < 90; ++i) {
+        w.step();
+        events.insert(events.end(), w.sensor_events().begin(), w.sensor_events().end());
+    }
+    REQUIRE(events.size() == 2);
+    CHECK(events[0].begin);
+    CHECK(events[0].overlap.soft);
+    CHECK(events[0].overlap.soft_body == cloth);
+    CHECK_FALSE(events[1].begin);
+    // The flat cloth (particles of thickness 1 cm) enters at y = 5.51 after falling 2.49 m and leaves
+    // below y = 4.49 after 3.51 m; drag-free cloth falls as a body does, within a step.
+    const double h = double(w.settings().time_step), g = 9.81, r = 0.01;
+    CHECK(std::abs(double(events[0].step) * h - std::sqrt(2 * (2.5 - r) / g)) <= h);
+    CHECK(std::abs(double(events[1].step) * h - std::sqrt(2 * (3.5 + r) / g)) <= h);
+}
+
+TEST_CASE("an embedded soft ball is seen by a sensor as itself, not through its rigid proxy", "[world][sensor]") {
+    SensorScene s = sensor_scene();
+    World& w = *s.world;
+    w.rigid().destroy_body(s.ball);
+    CouplingSettings c;
+    c.strategy = CouplingStrategy::EmbedRigid;
+    w.set_coupling(c);
+    LinkMaterial m;
+    const SoftBodyId ball = w.soft().create_body(make_icosphere(Vec3(0, 8, 0), Real(0.25), 1, 1, m));
+    int begins = 0, ends = 0;
+    for (int i = 0; i < 90; ++i) {
+        w.step();
+        for (const SensorEvent& e : w.sensor_events()) {
+            CHECK(e.overlap.soft);
+            CHECK(e.overlap.soft_body == ball);
+            (e.begin ? begins : ends)++;
+        }
+    }
+    CHECK(w.rigid().body_count() == 2);  // the sensor and the ball's proxy
+    CHECK(begins == 1);
+    CHECK(ends == 1);
 }

@@ -118,9 +118,11 @@ Recorder::Recorder(const std::string& path, const SceneDesc& scene, const World&
     Json bodies = Json::array();
     const RigidSystem& rigid = world.rigid();
     for (std::size_t i = 0; i < ids_.size(); ++i) {
-        bodies.push_back({{"name", i < scene.bodies.size() ? scene.bodies[i].name : "body-" + std::to_string(i)},
-                          {"type", body_type_name(rigid.type(ids_[i]))},
-                          {"shape", shape_json(rigid.shape(ids_[i]))}});
+        Json b = {{"name", i < scene.bodies.size() ? scene.bodies[i].name : "body-" + std::to_string(i)},
+                  {"type", body_type_name(rigid.type(ids_[i]))},
+                  {"shape", shape_json(rigid.shape(ids_[i]))}};
+        if (rigid.is_sensor(ids_[i])) b["sensor"] = true;
+        bodies.push_back(std::move(b));
     }
     header["bodies"] = std::move(bodies);
     // Soft bodies: one entry per body in creation order (scene order), with its surface triangles so a

@@ -64,6 +64,9 @@ sinew_body_def sinew_body_def_default(void) {
     d.linear_damping = 0;
     d.angular_damping = 0;
     d.filter = to_c(CollisionFilter{});
+    d.gravity_scale = 1;
+    d.allow_sleep = 1;
+    d.is_sensor = 0;
     d.user_data = 0;
     return d;
 }
@@ -100,6 +103,15 @@ sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, 
         b.linear_damping = Real(def->linear_damping);
         b.angular_damping = Real(def->angular_damping);
         b.filter = to_filter(def->filter);
+        if (!std::isfinite(def->gravity_scale))
+            return invalid(fn, "def->gravity_scale = " + to_text(def->gravity_scale) + " must be finite");
+        if (def->allow_sleep != 0 && def->allow_sleep != 1)
+            return invalid(fn, "def->allow_sleep = " + std::to_string(def->allow_sleep) + " must be 0 or 1");
+        if (def->is_sensor != 0 && def->is_sensor != 1)
+            return invalid(fn, "def->is_sensor = " + std::to_string(def->is_sensor) + " must be 0 or 1");
+        b.gravity_scale = Real(def->gravity_scale);
+        b.allow_sleep = def->allow_sleep != 0;
+        b.sensor = def->is_sensor != 0;
         b.user_data = def->user_data;
         BodyId id = w->rigid().create_body(b);  // RigidError names the rest; nothing is created then
         *out = {pack_world(world), id.index, id.generation};

@@ -26,6 +26,8 @@ WorldEvents::WorldEvents(World& world, const HostHooks& hooks)
       sleep_(HostAllocator<sinew_sleep_event>(hooks)),
       breaks_(HostAllocator<sinew_joint_break_event>(hooks)),
       soft_(HostAllocator<sinew_soft_contact_event>(hooks)),
+      sensor_begin_(HostAllocator<sinew_sensor_event>(hooks)),
+      sensor_end_(HostAllocator<sinew_sensor_event>(hooks)),
       soft_sums_(HostAllocator<SoftSum>(hooks)),
       awake_before_(HostAllocator<std::uint8_t>(hooks)),
       generation_before_(HostAllocator<std::uint32_t>(hooks)),
@@ -52,6 +54,8 @@ void WorldEvents::clear() {
     sleep_.clear();
     breaks_.clear();
     soft_.clear();
+    sensor_begin_.clear();
+    sensor_end_.clear();
     dropped_ = 0;
 }
 
@@ -72,6 +76,10 @@ sinew_events WorldEvents::view() const {
     e.joint_break_count = static_cast<int>(breaks_.size());
     e.soft_contact = soft_.data();
     e.soft_contact_count = static_cast<int>(soft_.size());
+    e.sensor_begin = sensor_begin_.data();
+    e.sensor_begin_count = static_cast<int>(sensor_begin_.size());
+    e.sensor_end = sensor_end_.data();
+    e.sensor_end_count = static_cast<int>(sensor_end_.size());
     e.dropped = dropped_;
     return e;
 }
@@ -190,6 +198,26 @@ void WorldEvents::gather_contacts(std::uint64_t step) {
         }
     }
     std::swap(pairs_, new_pairs_);
+}
+
+sinew_sensor_event sensor_event_c(std::uint32_t tag, const SensorOverlap& o, std::uint64_t step) {
+    sinew_sensor_event c{};
+    c.sensor = {tag, o.sensor.index, o.sensor.generation};
+    c.is_soft = o.soft ? 1 : 0;
+    if (o.soft) c.soft = {tag, o.soft_body.index, o.soft_body.generation};
+    else c.body = {tag, o.body.index, o.body.generation};
+    c.step = step;
+    return c;
+}
+
+void WorldEvents::gather_sensors(const std::vector<SensorEvent>& events) {
+    for (const SensorEvent& e : events) {
+        try {
+            (e.begin ? sensor_begin_ : sensor_end_).push_back(sensor_event_c(tag_, e.overlap, e.step));
+        } catch (const std::bad_alloc&) {
+            ++dropped_;
+        }
+    }
 }
 
 void WorldEvents::gather_breaks(std::uint64_t step) {

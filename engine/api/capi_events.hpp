@@ -9,6 +9,7 @@
 //   ended. RigidSystem::contacts() is sorted by body pair, so building the set is one linear pass.
 // - Joint breaks: RigidSystem::broken_joints() after the step; the definition of a broken joint is gone
 //   by then, so the bodies and user data come from a table filled when joints are created.
+// - Sensors: World::sensor_events() (engine/world/sensor_tracker.hpp), copied after the stepping call.
 // - Soft contacts: the coupling layer's impulses of the step (CouplingLayer::impulses()), summed per
 //   (soft body, rigid body) pair.
 // All buffers use the world's host allocator and keep their capacity: no allocation in a steady state.
@@ -21,6 +22,9 @@
 #include "engine/world/world.hpp"
 
 namespace sinew::capi {
+
+/// The C form of a sensor overlap (`step` 0 for a current overlap).
+sinew_sensor_event sensor_event_c(std::uint32_t world_tag, const SensorOverlap& o, std::uint64_t step);
 
 class WorldEvents {
 public:
@@ -35,6 +39,9 @@ public:
     void clear();
     /// Remembers a joint's bodies and user data for its break event (throws std::bad_alloc).
     void remember_joint(JointId id, const JointDef& def);
+    /// Sensor events of the stepping call (World::sensor_events()), gathered after it returns: the
+    /// world's sensor tracker runs after the pipeline, past this class's hooks.
+    void gather_sensors(const std::vector<SensorEvent>& events);
     /// Pointers into the buffers, valid until the next clear().
     sinew_events view() const;
 
@@ -69,6 +76,7 @@ private:
     HostVector<sinew_sleep_event> sleep_;
     HostVector<sinew_joint_break_event> breaks_;
     HostVector<sinew_soft_contact_event> soft_;
+    HostVector<sinew_sensor_event> sensor_begin_, sensor_end_;
     struct SoftSum {
         std::uint32_t rigid, soft;
         Vec3 impulse, weighted_point;

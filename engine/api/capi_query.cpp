@@ -70,6 +70,26 @@ sinew_status sinew_world_overlap_aabb(sinew_world_id world, sinew_vec3 lo, sinew
     });
 }
 
+sinew_status sinew_sensor_get_overlaps(sinew_body_id sensor, sinew_sensor_event* overlaps, int capacity, int* count) {
+    const char* fn = "sinew_sensor_get_overlaps";
+    return guarded(fn, [&] {
+        World* w = nullptr;
+        const BodyId id = find_body(sensor, fn, &w);
+        if (id.is_null()) return SINEW_ERROR_STALE_ID;
+        if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": count is NULL");
+        if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+        if (capacity > 0 && !overlaps) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": overlaps is NULL");
+        if (!w->rigid().is_sensor(id))
+            return invalid(fn, "body {index " + std::to_string(id.index) + "} is not a sensor (sinew_body_def.is_sensor)");
+        thread_local std::vector<SensorOverlap> found;  // reused: no allocation per call once warm
+        w->sensors().overlaps(id, found);
+        const std::size_t n = std::min(found.size(), std::size_t(capacity));
+        for (std::size_t k = 0; k < n; ++k) overlaps[k] = sensor_event_c(sensor.world, found[k], 0);
+        *count = static_cast<int>(found.size());
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_world_overlap_shape(sinew_world_id world, const sinew_shape_def* shape, const sinew_transform* transform,
                                        sinew_body_id* ids, int capacity, int* count) {
     const char* fn = "sinew_world_overlap_shape";

@@ -156,6 +156,7 @@ sinew_status sinew_world_step(sinew_world_id id, float frame_dt, int* steps_take
         const double pending = double(w->interpolation_alpha()) * h + double(frame_dt);
         e->events.clear();
         const int n = w->advance(Real(frame_dt));
+        e->events.gather_sensors(w->sensor_events());
         const std::vector<StepFault> faults = w->faults();  // a log callback below may step the world again
         // The accumulator cap drops what it could not simulate: tell the host (a frame hitch or a world
         // too slow for its time step).
@@ -179,6 +180,7 @@ sinew_status sinew_world_step_fixed(sinew_world_id id) {
         if (sinew_status s = check_not_stepping(e->world.get(), "sinew_world_step_fixed")) return s;
         e->events.clear();
         e->world->step();
+        e->events.gather_sensors(e->world->sensor_events());
         if (!e->world->faults().empty()) return report_faults("sinew_world_step_fixed", id, e->world->faults());
         return SINEW_OK;
     });

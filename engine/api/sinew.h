@@ -141,6 +141,11 @@ typedef struct sinew_body_def {
     float linear_damping;     /* 1/s, default 0 */
     float angular_damping;    /* 1/s, default 0 */
     sinew_filter filter;      /* default: category 1, collides with everything */
+    float gravity_scale;      /* multiplies the world's gravity for this body, finite (default 1) */
+    int allow_sleep;          /* 0 or 1 (default 1) */
+    int is_sensor;            /* 1: a trigger volume that reports overlaps and touches nothing (no contacts,
+                                 not found by queries); its shape must be a sphere, box or capsule. Any body
+                                 type; fixed at creation (default 0). See the sensor events. */
     uint64_t user_data;       /* yours, returned by sinew_body_user_data() */
 } sinew_body_def;
 
@@ -469,6 +474,19 @@ typedef struct sinew_soft_contact_event {
     uint64_t step;
 } sinew_soft_contact_event;
 
+/* A body began or stopped overlapping a sensor (sinew_body_def.is_sensor). Found after each step, with
+ * every position final: dynamic and kinematic rigid bodies whose shapes touch the sensor's, and soft
+ * bodies with a particle (a sphere of the body's thickness) touching it, both passing the sensor's filter.
+ * Static bodies and other sensors are not reported. Every begin is followed by exactly one end, also
+ * when the visitor or the sensor is destroyed (the end then names a stale id). */
+typedef struct sinew_sensor_event {
+    sinew_body_id sensor;
+    int is_soft;              /* 1: the visitor is `soft`, 0: it is `body` (the other is zeroed) */
+    sinew_body_id body;
+    sinew_soft_body_id soft;
+    uint64_t step;
+} sinew_sensor_event;
+
 typedef struct sinew_events {
     const sinew_contact_begin_event* contact_begin; /* in (body_a slot, body_b slot) order per step */
     int contact_begin_count;
@@ -480,6 +498,10 @@ typedef struct sinew_events {
     int joint_break_count;
     const sinew_soft_contact_event* soft_contact;   /* in (soft body slot, rigid body slot) order per step */
     int soft_contact_count;
+    const sinew_sensor_event* sensor_begin;         /* in (sensor slot, rigid before soft, visitor slot) order per step */
+    int sensor_begin_count;
+    const sinew_sensor_event* sensor_end;           /* same order */
+    int sensor_end_count;
     int dropped;  /* events lost because the allocator returned NULL (0 normally) */
 } sinew_events;
 
@@ -506,6 +528,12 @@ SINEW_API sinew_status sinew_world_overlap_aabb(sinew_world_id world, sinew_vec3
 /** Bodies whose shapes overlap or touch `shape` placed at `transform`, as sinew_world_overlap_aabb. */
 SINEW_API sinew_status sinew_world_overlap_shape(sinew_world_id world, const sinew_shape_def* shape,
                                                  const sinew_transform* transform, sinew_body_id* ids, int capacity,
+                                                 int* count);
+/** What overlaps the sensor after the last step, in (rigid before soft, visitor slot) order: up to
+ *  capacity overlaps written to `overlaps` (may be NULL when capacity is 0), *count receives how many
+ *  there are. The events (sensor_begin, is_soft, body, soft; step 0) describe each. A body that is no
+ *  sensor has none (SINEW_ERROR_INVALID_ARGUMENT). */
+SINEW_API sinew_status sinew_sensor_get_overlaps(sinew_body_id sensor, sinew_sensor_event* overlaps, int capacity,
                                                  int* count);
 /** Changes the rigid solver and its velocity iterations (1..1000) from the next step. */
 SINEW_API sinew_status sinew_world_set_solver(sinew_world_id world, sinew_solver solver, int velocity_iterations);

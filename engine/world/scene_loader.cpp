@@ -382,7 +382,7 @@ private:
     void parse_body(const Node& b, std::size_t index) {
         b.allow_keys({"name", "type", "shape", "position", "rotation", "rotation_deg", "linear_velocity",
                       "angular_velocity", "material", "mass", "linear_damping", "angular_damping", "gravity_scale",
-                      "allow_sleep", "filter", "user_data"});
+                      "allow_sleep", "filter", "sensor", "user_data"});
         static const std::pair<const char*, BodyType> types[] = {
             {"static", BodyType::Static}, {"kinematic", BodyType::Kinematic}, {"dynamic", BodyType::Dynamic}};
         SceneBody body;
@@ -422,6 +422,10 @@ private:
         d.gravity_scale = read_real(b, "gravity_scale", d.gravity_scale, Range::Any);
         d.allow_sleep = read_bool(b, "allow_sleep", d.allow_sleep);
         d.filter = read_filter(b);
+        d.sensor = read_bool(b, "sensor", false);
+        if (d.sensor && (d.shape.type == ShapeType::Plane || d.shape.type == ShapeType::TriangleMesh))
+            shape.fail(std::string("a sensor's shape must be a sphere, box, capsule, hull or compound, and body \"") +
+                       body.name + "\"'s is a " + shape_type_name(d.shape.type));
         check_mass_properties(d, b);
         if (auto n = b.find("user_data")) {
             if (!n->json().is_number_unsigned()) n->type_error("an integer >= 0");

@@ -308,6 +308,7 @@ Json body_json(const RigidSystem& rigid, BodyId id, const std::unordered_map<con
     b["gravity_scale"] = number(rigid.gravity_scale(id));
     b["allow_sleep"] = rigid.allow_sleep(id);
     if (const Json f = scene_json::filter_json(rigid.filter(id)); !f.is_null()) b["filter"] = f;
+    if (rigid.is_sensor(id)) b["sensor"] = true;
     if (rigid.user_data(id) != 0) b["user_data"] = rigid.user_data(id);
     return b;
 }

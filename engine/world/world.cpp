@@ -106,6 +106,7 @@ std::uint64_t World::state_hash() const {
 
 void World::step() {
     faults_.clear();
+    sensor_events_.clear();
     step_once();
 }
 
@@ -123,6 +124,9 @@ void World::step_once() {
             faults_.push_back(f);
             faults_.back().step = index;
         }
+    // After the whole step, coupling layers' last hooks included: every position is final.
+    sensors_.update(*rigid_, *soft_, *coupling_, index + 1);
+    sensor_events_.insert(sensor_events_.end(), sensors_.step_events().begin(), sensors_.step_events().end());
 }
 
 int World::advance(Real frame_dt) {
@@ -130,6 +134,7 @@ int World::advance(Real frame_dt) {
         throw std::invalid_argument("frame_dt must be finite and >= 0, got " + std::to_string(frame_dt));
     accumulator_ += frame_dt;
     faults_.clear();
+    sensor_events_.clear();
     int steps = 0;
     while (accumulator_ >= settings_.time_step && steps < settings_.max_steps_per_frame) {
         step_once();

@@ -8,6 +8,7 @@
 #include "engine/core/pipeline.hpp"
 #include "engine/core/task_system.hpp"
 #include "engine/core/thread_pool.hpp"
+#include "engine/world/sensor_tracker.hpp"
 #include "rigid/rigid_system.hpp"
 #include "soft/soft_system.hpp"
 
@@ -76,6 +77,11 @@ public:
     /// order found (rigid before soft within a step). Each was put back where its step found it, at rest
     /// (engine/core/step_fault.hpp); the world is valid and steps on.
     const std::vector<StepFault>& faults() const { return faults_; }
+    /// Sensor overlaps that began or ended in the steps of the last step() or advance() call, step by step
+    /// in the tracker's order (engine/world/sensor_tracker.hpp).
+    const std::vector<SensorEvent>& sensor_events() const { return sensor_events_; }
+    /// What overlaps each sensor after the last step.
+    const SensorTracker& sensors() const { return sensors_; }
     /// FNV-1a over every rigid body slot's position, orientation, velocity and spin and every soft body's
     /// particle positions and velocities: equal hashes, equal states bit for bit (determinism checks).
     std::uint64_t state_hash() const;
@@ -92,6 +98,8 @@ private:
     double time_ = 0;
     bool in_step_ = false;
     std::vector<StepFault> faults_;
+    SensorTracker sensors_;
+    std::vector<SensorEvent> sensor_events_;
     std::unique_ptr<ThreadPool> pool_;  // the world's own threads, when the host brings none
     TaskSystem tasks_;                  // what the systems use: the host's, the pool's, or serial
 };

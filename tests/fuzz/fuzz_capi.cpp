@@ -185,6 +185,9 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
                 if (in.pick(4) == 0) d.restitution = in.value();
                 if (in.pick(4) == 0) d.linear_damping = in.value();
                 if (in.pick(4) == 0) d.angular_damping = in.value();
+                // Every fifth body a sensor, from the count rather than the input, so the committed
+                // corpus decodes as it did before sensors came.
+                d.is_sensor = s.bodies.size() % 5 == 4 ? 1 : 0;
                 sinew_body_id id;
                 if (s.watch(sinew_body_create(s.world, &d, &id), "sinew_body_create") == SINEW_OK) s.bodies.push_back(id);
                 break;
@@ -342,6 +345,11 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
             case 22: {
                 sinew_events ev;
                 s.watch(sinew_world_get_events(s.world, &ev), "sinew_world_get_events");
+                for (const sinew_body_id& b : s.bodies) {
+                    sinew_sensor_event o[4];
+                    int count = 0;
+                    s.watch(sinew_sensor_get_overlaps(b, o, 4, &count), "sinew_sensor_get_overlaps");
+                }
                 break;
             }
             default: {

@@ -6,6 +6,7 @@ import { shapeParts } from './shapes.js';
 
 const COLOURS = { static: 0x8a8f98, kinematic: 0xe0a040 };
 const SOFT_COLOUR = 0x4aa3df;
+const SENSOR_COLOUR = 0x58d68d; // sensors: translucent green, drawn without hiding what is inside
 
 // A body's colour: static grey, kinematic amber, dynamic ones spread around the hue circle by index so
 // neighbours differ (golden-ratio hue steps).
@@ -115,18 +116,20 @@ export class RecordingView {
     const cache = new Map();
     const byShape = new Map(); // shape JSON -> [body index]
     h.bodies.forEach((b, i) => {
-      const key = JSON.stringify(b.shape);
+      const key = JSON.stringify({ shape: b.shape, sensor: b.sensor === true });
       if (!byShape.has(key)) byShape.set(key, []);
       byShape.get(key).push(i);
     });
     for (const [key, bodies] of byShape) {
-      const parts = shapeParts(JSON.parse(key), cache);
+      const { shape, sensor } = JSON.parse(key);
+      const parts = shapeParts(shape, cache);
       for (const part of parts) {
         const material = new THREE.MeshStandardMaterial({ roughness: 0.75, metalness: 0.05,
-          side: part.doubleSided ? THREE.DoubleSide : THREE.FrontSide });
+          side: part.doubleSided || sensor ? THREE.DoubleSide : THREE.FrontSide });
+        if (sensor) Object.assign(material, { transparent: true, opacity: 0.25, depthWrite: false });
         const mesh = new THREE.InstancedMesh(part.geometry, material, bodies.length);
         mesh.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
-        bodies.forEach((b, k) => mesh.setColorAt(k, bodyColour(h.bodies[b].type, b)));
+        bodies.forEach((b, k) => mesh.setColorAt(k, sensor ? new THREE.Color(SENSOR_COLOUR) : bodyColour(h.bodies[b].type, b)));
         mesh.frustumCulled = false; // instances move every frame; the bounding sphere is refreshed only for picking
         mesh.userData = { bodies };
         this.scene.add(mesh);
