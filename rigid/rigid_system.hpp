@@ -16,6 +16,7 @@
 #include "engine/core/narrowphase.hpp"
 #include "engine/core/pipeline.hpp"
 #include "engine/core/ray_cast.hpp"
+#include "engine/core/shape_cast.hpp"
 #include "engine/core/slots.hpp"
 #include "engine/core/step_fault.hpp"
 #include "engine/core/task_system.hpp"
@@ -204,8 +205,26 @@ public:
         RayHit hit;
     };
     /// The closest body the segment from -> to enters. False if none. Throws RigidError for a non-finite
-    /// point.
+    /// point. With `filter`, only bodies that would collide with a body of that filter count
+    /// (should_collide: a group < 0 skips one's own ragdoll, a mask picks categories).
     bool ray_cast(const Vec3& from, const Vec3& to, RayResult& out) const;
+    bool ray_cast(const Vec3& from, const Vec3& to, const CollisionFilter& filter, RayResult& out) const;
+    /// Every body the segment enters, one hit each (its entry), by fraction then slot (replaces out).
+    void ray_cast_all(const Vec3& from, const Vec3& to, const CollisionFilter& filter, std::vector<RayResult>& out) const;
+    struct ShapeCastResult {
+        BodyId body;
+        ShapeCastHit hit;
+    };
+    /// Sweeps `shape` (a sphere, box, capsule, hull or compound) from `xf` along `translation`, keeping its
+    /// rotation, and finds the first body it touches (engine/core/shape_cast.hpp: within kCastTolerance of
+    /// the exact time of impact; ties go to the lower slot). A shape already overlapping a body at the
+    /// start hits it at fraction 0. Throws RigidError for a non-finite transform or translation or a
+    /// shape that cannot be cast.
+    bool shape_cast(const Shape& shape, const Transform& xf, const Vec3& translation, const CollisionFilter& filter,
+                    ShapeCastResult& out) const;
+    /// The closest points of `shape` at `xf` and body `id`'s shape, if they are at most `max_distance`
+    /// apart (negative distance: overlapping). Throws RigidError as shape_cast, and for a bad id.
+    bool closest_points(const Shape& shape, const Transform& xf, BodyId id, Real max_distance, ClosestPoints& out) const;
     /// Bodies whose shapes' world bounds overlap `box`, in slot order (replaces out's contents).
     void overlap_aabb(const Aabb& box, std::vector<BodyId>& out) const;
     /// Bodies whose shapes overlap (or touch) `shape` placed at `xf`, in slot order. The query shape must

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "tests/test_c_api_util.hpp"
@@ -185,4 +186,80 @@ TEST_CASE("C API queries and settings reject bad input and leave the world uncha
     expect_rejected(w, before, sinew_body_set_material(stale, 0.5f, 0), SINEW_ERROR_STALE_ID, "sinew_body_set_material");
     expect_rejected(w, before, sinew_world_save_scene(w, nullptr), SINEW_ERROR_NULL_ARGUMENT, "path is NULL");
     sinew_world_destroy(w);
+}
+
+TEST_CASE("C API shape casts, closest points and filtered and all-hit ray casts", "[capi][query][cast]") {
+    sinew_world_id w = make_world();
+    // Three static 1 m cubes along x at 3, 5 and 7, categories 1, 2 and 4.
+    sinew_body_id cubes[3];
+    for (int k = 0; k < 3; ++k) {
+        sinew_body_def d = sinew_body_def_default();
+        d.type = SINEW_BODY_STATIC;
+        d.transform.p = {float(3 + 2 * k), 0, 0};
+        d.filter.category_bits = 1u << k;
+        REQUIRE(sinew_body_create(w, &d, &cubes[k]) == SINEW_OK);
+    }
+    sinew_body_def def = sinew_body_def_default();
+    const sinew_filter all = sinew_filter_default();
+    sinew_shape_def sphere = def.shape;
+    sphere.type = SINEW_SHAPE_SPHERE;
+    sphere.radius = 0.25f;
+    const sinew_transform origin = {{0, 0.1f, 0}, {0, 0, 0, 1}};
+    sinew_shape_cast_hit hit;
+    int found = 0;
+    // The sphere's centre stops 0.25 m before the first cube's face at x = 2.5: fraction 2.25 / 10.
+    REQUIRE(sinew_world_cast_shape(w, &sphere, &origin, {10, 0, 0}, all, &hit, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(same(hit.body, cubes[0]));
+    CHECK(std::abs(hit.fraction - 0.225f) <= 1e-4f);
+    CHECK(std::abs(hit.normal.x + 1) < 1e-4f);
+    CHECK(std::abs(hit.point.x - 2.5f) < 1e-3f);
+    sinew_filter skip_first = all;
+    skip_first.mask_bits = ~1u;
+    REQUIRE(sinew_world_cast_shape(w, &sphere, &origin, {10, 0, 0}, skip_first, &hit, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(same(hit.body, cubes[1]));
+    CHECK(std::abs(hit.fraction - 0.425f) <= 1e-4f);
+    REQUIRE(sinew_world_cast_shape(w, &sphere, &origin, {0, 10, 0}, all, &hit, &found) == SINEW_OK);
+    CHECK(found == 0);
+
+    sinew_ray_hit ray;
+    REQUIRE(sinew_world_ray_cast_filtered(w, {0, 0, 0}, {10, 0, 0}, skip_first, &ray, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(same(ray.body, cubes[1]));
+    sinew_ray_hit hits[2];
+    int count = 0;
+    REQUIRE(sinew_world_ray_cast_all(w, {0, 0, 0}, {10, 0, 0}, all, hits, 2, &count) == SINEW_OK);
+    CHECK(count == 3);  // more than the buffer holds: the first two written, by fraction
+    CHECK(same(hits[0].body, cubes[0]));
+    CHECK(same(hits[1].body, cubes[1]));
+    CHECK(std::abs(hits[1].fraction - 0.45f) < 1e-5f);
+
+    sinew_closest_points cp;
+    REQUIRE(sinew_world_closest_points(w, &sphere, &origin, cubes[2], 10, &cp, &found) == SINEW_OK);
+    REQUIRE(found == 1);
+    CHECK(std::abs(cp.distance - (6.5f - 0.25f)) < 1e-4f);
+    CHECK(std::abs(cp.point_on_body.x - 6.5f) < 1e-4f);
+    REQUIRE(sinew_world_closest_points(w, &sphere, &origin, cubes[2], 1, &cp, &found) == SINEW_OK);
+    CHECK(found == 0);
+
+    // Misuse: each refused with the world unchanged.
+    const std::vector<float> before = fingerprint(w);
+    const sinew_transform bad_q = {{0, 0, 0}, {0, 0, 0, 0}};
+    CHECK(sinew_world_cast_shape(w, nullptr, &origin, {1, 0, 0}, all, &hit, &found) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_world_cast_shape(w, &sphere, &bad_q, {1, 0, 0}, all, &hit, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_cast_shape(w, &sphere, &origin, {NAN, 0, 0}, all, &hit, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("translation") != std::string::npos);
+    sinew_shape_def bad_shape = sphere;
+    bad_shape.radius = -1;
+    CHECK(sinew_world_cast_shape(w, &bad_shape, &origin, {1, 0, 0}, all, &hit, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    poke(bad_shape.type, 99);
+    CHECK(sinew_world_closest_points(w, &bad_shape, &origin, cubes[0], 1, &cp, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_closest_points(w, &sphere, &origin, cubes[0], -1, &cp, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_closest_points(w, &sphere, &origin, sinew_body_id{}, 1, &cp, &found) == SINEW_ERROR_STALE_ID);
+    CHECK(sinew_world_ray_cast_all(w, {0, 0, 0}, {1, 0, 0}, all, nullptr, 2, &count) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_world_ray_cast_all(w, {0, 0, 0}, {1, 0, 0}, all, hits, -1, &count) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_ray_cast_filtered(w, {INFINITY, 0, 0}, {1, 0, 0}, all, &ray, &found) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(fingerprint(w) == before);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }

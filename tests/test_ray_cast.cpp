@@ -8,6 +8,7 @@
 #include <random>
 
 #include "engine/core/narrowphase.hpp"
+#include "engine/core/shape_cast.hpp"
 #include "engine/world/world.hpp"
 
 using namespace sinew;
@@ -161,4 +162,118 @@ TEST_CASE("world ray casts and overlaps equal brute force over every body", "[qu
                       Catch::Contains("must be convex or a compound"));
     RigidSystem::RayResult r;
     CHECK_THROWS_WITH(rigid.ray_cast(Vec3(std::nan(""), 0, 0), Vec3::Zero(), r), Catch::Contains("must be finite"));
+}
+
+// ---- shape casts and closest points (engine/core/shape_cast.hpp) -------------------------------------------
+
+TEST_CASE("shape casts meet the analytic time of impact within 1e-4", "[query][cast]") {
+    const Shape sphere = make_sphere(Real(0.5));
+    const Shape box = make_box(Vec3(1, 1, 1));
+    const Transform at_origin{Vec3::Zero(), Quat::Identity()};
+    const Vec3 sweep(10, 0, 0);
+    ShapeCastHit hit;
+    SECTION("a sphere onto a box face") {
+        REQUIRE(shape_cast(sphere, at_origin, sweep, box, {Vec3(5, 0.3, 0), Quat::Identity()}, 1, hit));
+        CHECK(std::abs(hit.fraction - Real(0.35)) <= Real(1e-4));  // surface at x = 4, centre stops at 3.5
+        CHECK((hit.normal - Vec3(-1, 0, 0)).norm() < Real(1e-4));
+        CHECK(std::abs(hit.point.x() - 4) < Real(1e-3));
+    }
+    SECTION("a sphere onto a box edge (the box turned 45 degrees about y)") {
+        const Quat q(Eigen::AngleAxis<Real>(Real(M_PI / 4), Vec3::UnitY()));
+        REQUIRE(shape_cast(sphere, at_origin, sweep, box, {Vec3(5, 0, 0), q}, 1, hit));
+        CHECK(std::abs(hit.fraction - Real((5 - std::sqrt(2.0) - 0.5) / 10)) <= Real(1e-4));
+        CHECK((hit.normal - Vec3(-1, 0, 0)).norm() < Real(1e-3));
+    }
+    SECTION("a sphere onto a box corner, off the corner's line") {
+        // Corner (4, 1, 1) of the box at (5, 2, 2); the centre moves along x at y = z = 0.9, so it
+        // touches when (x - 4)^2 + 0.01 + 0.01 = 0.25: x = 4 - sqrt(0.23).
+        REQUIRE(shape_cast(sphere, {Vec3(0, 0.9, 0.9), Quat::Identity()}, sweep, box, {Vec3(5, 2, 2), Quat::Identity()}, 1, hit));
+        CHECK(std::abs(hit.fraction - Real((4 - std::sqrt(0.23)) / 10)) <= Real(1e-4));
+    }
+    SECTION("a box turned about z onto a box: its lower corner leads") {
+        // A unit cube (half 0.5) turned 45 degrees about z reaches sqrt(0.5) along x.
+        const Shape cube = make_box(Vec3(0.5, 0.5, 0.5));
+        const Quat q(Eigen::AngleAxis<Real>(Real(M_PI / 4), Vec3::UnitZ()));
+        REQUIRE(shape_cast(cube, {Vec3::Zero(), q}, sweep, box, {Vec3(5, 0, 0), Quat::Identity()}, 1, hit));
+        CHECK(std::abs(hit.fraction - Real((4 - std::sqrt(0.5)) / 10)) <= Real(1e-4));
+    }
+    SECTION("a capsule dropped onto a plane lands on its lower cap") {
+        const Shape capsule = make_capsule(Real(0.6), Real(0.3));
+        REQUIRE(shape_cast(capsule, {Vec3(0, 5, 0), Quat::Identity()}, Vec3(0, -10, 0), make_plane(Vec3::UnitY(), 0), at_origin, 1, hit));
+        CHECK(std::abs(hit.fraction - Real((5 - 0.9) / 10)) <= Real(1e-4));
+        CHECK((hit.normal - Vec3::UnitY()).norm() < Real(1e-5));
+    }
+    SECTION("a sphere onto a triangle mesh and onto a compound's nearer child") {
+        const Shape ground = make_triangle_mesh({Vec3(-5, 0, -5), Vec3(5, 0, -5), Vec3(5, 0, 5), Vec3(-5, 0, 5)}, {0, 2, 1, 0, 3, 2});
+        REQUIRE(shape_cast(sphere, {Vec3(0.2, 3, 0.1), Quat::Identity()}, Vec3(0, -4, 0), ground, at_origin, 1, hit));
+        CHECK(std::abs(hit.fraction - Real(2.5 / 4)) <= Real(1e-4));
+        const Shape compound = make_compound({{{Vec3(0, 0, 0), Quat::Identity()}, box},
+                                              {{Vec3(-3, 0, 0), Quat::Identity()}, make_sphere(1)}});
+        REQUIRE(shape_cast(sphere, at_origin, sweep, compound, {Vec3(8, 0, 0), Quat::Identity()}, 1, hit));
+        CHECK(std::abs(hit.fraction - Real((8 - 3 - 1 - 0.5) / 10.0)) <= Real(1e-4));  // the sphere child at x = 5
+    }
+    SECTION("misses, paths moving away, max_fraction and a start inside") {
+        CHECK_FALSE(shape_cast(sphere, at_origin, sweep, box, {Vec3(5, 2, 0), Quat::Identity()}, 1, hit));  // passes over
+        CHECK_FALSE(shape_cast(sphere, at_origin, -sweep, box, {Vec3(5, 0, 0), Quat::Identity()}, 1, hit));
+        CHECK_FALSE(shape_cast(sphere, at_origin, sweep, box, {Vec3(5, 0, 0), Quat::Identity()}, Real(0.3), hit));
+        REQUIRE(shape_cast(sphere, at_origin, sweep, box, {Vec3(1, 0, 0), Quat::Identity()}, 1, hit));
+        CHECK(hit.fraction == 0);
+        CHECK_THROWS_AS(shape_cast(make_plane(Vec3::UnitY(), 0), at_origin, sweep, box, at_origin, 1, hit), ShapeError);
+    }
+}
+
+TEST_CASE("closest points of separated and overlapping shapes match closed forms", "[query][cast]") {
+    ClosestPoints cp;
+    const Shape box = make_box(Vec3(1, 1, 1));
+    // Two boxes corner to corner: the distance is between the corners (an axis test would give 1).
+    REQUIRE(closest_points(box, {Vec3::Zero(), Quat::Identity()}, box, {Vec3(3, 3, 3), Quat::Identity()}, 10, cp));
+    CHECK(std::abs(cp.distance - Real(std::sqrt(3.0))) < Real(1e-4));
+    CHECK((cp.point_a - Vec3(1, 1, 1)).norm() < Real(1e-3));
+    CHECK((cp.point_b - Vec3(2, 2, 2)).norm() < Real(1e-3));
+    CHECK((cp.normal - Vec3(1, 1, 1).normalized()).norm() < Real(1e-3));
+    CHECK_FALSE(closest_points(box, {Vec3::Zero(), Quat::Identity()}, box, {Vec3(3, 3, 3), Quat::Identity()}, 1, cp));
+    // A sphere sunk 0.2 m into a plane.
+    REQUIRE(closest_points(make_sphere(Real(0.5)), {Vec3(0, 0.3, 0), Quat::Identity()}, make_plane(Vec3::UnitY(), 0),
+                           {Vec3::Zero(), Quat::Identity()}, 1, cp));
+    CHECK(std::abs(cp.distance + Real(0.2)) < Real(1e-5));
+    CHECK((cp.point_a - Vec3(0, -0.2, 0)).norm() < Real(1e-5));
+}
+
+TEST_CASE("world shape casts, filtered and all-hit ray casts", "[query][cast]") {
+    WorldSettings ws;
+    World w(ws);
+    RigidSystem& r = w.rigid();
+    std::vector<BodyId> walls;
+    for (int k = 0; k < 3; ++k) {
+        BodyDef d;
+        d.type = BodyType::Static;
+        d.shape = make_box(Vec3(0.1, 2, 2));
+        d.pose.p = Vec3(Real(3 + 2 * k), 0, 0);
+        d.filter.category = 1u << k;
+        walls.push_back(r.create_body(d));
+    }
+    RigidSystem::ShapeCastResult hit;
+    REQUIRE(r.shape_cast(make_sphere(Real(0.5)), {Vec3::Zero(), Quat::Identity()}, Vec3(10, 0, 0), {}, hit));
+    CHECK(hit.body == walls[0]);
+    CHECK(std::abs(hit.hit.fraction - Real(0.24)) <= Real(1e-4));  // face at 2.9, centre at 2.4
+    // A query filter whose mask leaves out the first wall's category finds the second.
+    CollisionFilter skip_first;
+    skip_first.mask = ~1u;
+    REQUIRE(r.shape_cast(make_box(Vec3(0.5, 0.5, 0.5)), {Vec3::Zero(), Quat::Identity()}, Vec3(10, 0, 0), skip_first, hit));
+    CHECK(hit.body == walls[1]);
+    CHECK(std::abs(hit.hit.fraction - Real(0.44)) <= Real(1e-4));
+    RigidSystem::RayResult ray;
+    REQUIRE(r.ray_cast(Vec3(0, 0, 0), Vec3(10, 0, 0), skip_first, ray));
+    CHECK(ray.body == walls[1]);
+    std::vector<RigidSystem::RayResult> all;
+    r.ray_cast_all(Vec3(10, 0, 0), Vec3(0, 0, 0), {}, all);
+    REQUIRE(all.size() == 3);
+    CHECK(all[0].body == walls[2]);  // by fraction along the ray
+    CHECK(all[2].body == walls[0]);
+    CHECK(std::abs(all[1].hit.fraction - Real(0.49)) < Real(1e-5));  // the middle wall's face at x = 5.1
+    ClosestPoints cp;
+    REQUIRE(r.closest_points(make_sphere(Real(0.5)), {Vec3::Zero(), Quat::Identity()}, walls[0], 5, cp));
+    CHECK(std::abs(cp.distance - Real(2.4)) < Real(1e-4));
+    CHECK_THROWS_AS(r.shape_cast(make_sphere(1), {Vec3::Zero(), Quat::Identity()}, Vec3(NAN, 0, 0), {}, hit), RigidError);
+    CHECK_THROWS_AS(r.closest_points(make_sphere(1), {Vec3::Zero(), Quat::Identity()}, BodyId{}, 1, cp), RigidError);
 }

@@ -46,6 +46,8 @@ Target target(sinew_body_id id, const char* fn, bool mutates) {
 
 extern "C" {
 
+sinew_filter sinew_filter_default(void) { return to_c(CollisionFilter{}); }
+
 sinew_body_def sinew_body_def_default(void) {
     sinew_body_def d;
     d.type = SINEW_BODY_DYNAMIC;

@@ -1,5 +1,6 @@
 // C API: ray casts and overlap queries against a world's rigid bodies (rigid/rigid_queries.cpp), and the
 // settings a game changes at run time (solver, gravity, a body's material).
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -28,6 +29,38 @@ std::vector<BodyId>& scratch() {
     return ids;
 }
 
+/// A query's shape and pose from C (sphere, box or capsule; ShapeError names a bad dimension).
+sinew_status query_shape(const char* fn, const sinew_shape_def& shape, const sinew_transform& transform, Shape& s,
+                         Transform& xf) {
+    if (!finite(transform.p)) return invalid(fn, "transform->p must be finite");
+    const sinew_quat& q = transform.q;
+    const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+    if (!(std::isfinite(n2) && n2 > 1e-12f)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
+    switch (enum_value(shape.type)) {
+        case SINEW_SHAPE_SPHERE: s = make_sphere(Real(shape.radius)); break;
+        case SINEW_SHAPE_BOX: s = make_box(to_vec(shape.half_extents)); break;
+        case SINEW_SHAPE_CAPSULE: s = make_capsule(Real(shape.half_height), Real(shape.radius)); break;
+        default: return invalid(fn, "shape->type = " + std::to_string(enum_value(shape.type)) + " is not a sinew_shape_type");
+    }
+    xf = {to_vec(transform.p), to_quat(q).normalized()};
+    return SINEW_OK;
+}
+
+sinew_ray_hit ray_hit_c(sinew_world_id world, const RigidSystem::RayResult& r) {
+    sinew_ray_hit h;
+    h.body = {pack_world(world), r.body.index, r.body.generation};
+    h.point = to_c(r.hit.point);
+    h.normal = to_c(r.hit.normal);
+    h.fraction = float(r.hit.fraction);
+    return h;
+}
+
+sinew_status check_ray(const char* fn, sinew_vec3 from, sinew_vec3 to) {
+    if (!finite(from)) return invalid(fn, "from = " + to_text(to_vec(from)) + " must be finite");
+    if (!finite(to)) return invalid(fn, "to = " + to_text(to_vec(to)) + " must be finite");
+    return SINEW_OK;
+}
+
 }  // namespace
 
 extern "C" {
@@ -39,16 +72,109 @@ sinew_status sinew_world_ray_cast(sinew_world_id world, sinew_vec3 from, sinew_v
         if (!w) return SINEW_ERROR_STALE_ID;
         if (!hit) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": hit is NULL");
         if (!found) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": found is NULL");
-        if (!finite(from)) return invalid(fn, "from = " + to_text(to_vec(from)) + " must be finite");
-        if (!finite(to)) return invalid(fn, "to = " + to_text(to_vec(to)) + " must be finite");
+        if (sinew_status st = check_ray(fn, from, to)) return st;
         RigidSystem::RayResult r;
         *found = 0;
         if (w->rigid().ray_cast(to_vec(from), to_vec(to), r)) {
+            *found = 1;
+            *hit = ray_hit_c(world, r);
+        }
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_ray_cast_filtered(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_filter filter,
+                                           sinew_ray_hit* hit, int* found) {
+    const char* fn = "sinew_world_ray_cast_filtered";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!hit) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": hit is NULL");
+        if (!found) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": found is NULL");
+        if (sinew_status st = check_ray(fn, from, to)) return st;
+        RigidSystem::RayResult r;
+        *found = 0;
+        if (w->rigid().ray_cast(to_vec(from), to_vec(to), to_filter(filter), r)) {
+            *found = 1;
+            *hit = ray_hit_c(world, r);
+        }
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_ray_cast_all(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_filter filter,
+                                      sinew_ray_hit* hits, int capacity, int* count) {
+    const char* fn = "sinew_world_ray_cast_all";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": count is NULL");
+        if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+        if (capacity > 0 && !hits) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": hits is NULL");
+        if (sinew_status st = check_ray(fn, from, to)) return st;
+        thread_local std::vector<RigidSystem::RayResult> all;
+        w->rigid().ray_cast_all(to_vec(from), to_vec(to), to_filter(filter), all);
+        const std::size_t n = std::min(all.size(), std::size_t(capacity));
+        for (std::size_t k = 0; k < n; ++k) hits[k] = ray_hit_c(world, all[k]);
+        *count = static_cast<int>(all.size());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_cast_shape(sinew_world_id world, const sinew_shape_def* shape, const sinew_transform* transform,
+                                    sinew_vec3 translation, sinew_filter filter, sinew_shape_cast_hit* hit, int* found) {
+    const char* fn = "sinew_world_cast_shape";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!shape) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": shape is NULL");
+        if (!transform) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": transform is NULL");
+        if (!hit) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": hit is NULL");
+        if (!found) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": found is NULL");
+        if (!finite(translation)) return invalid(fn, "translation = " + to_text(to_vec(translation)) + " must be finite");
+        Shape s;
+        Transform xf;
+        if (sinew_status st = query_shape(fn, *shape, *transform, s, xf)) return st;
+        RigidSystem::ShapeCastResult r;
+        *found = 0;
+        if (w->rigid().shape_cast(s, xf, to_vec(translation), to_filter(filter), r)) {
             *found = 1;
             hit->body = {pack_world(world), r.body.index, r.body.generation};
             hit->point = to_c(r.hit.point);
             hit->normal = to_c(r.hit.normal);
             hit->fraction = float(r.hit.fraction);
+        }
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_closest_points(sinew_world_id world, const sinew_shape_def* shape, const sinew_transform* transform,
+                                        sinew_body_id body, float max_distance, sinew_closest_points* out, int* found) {
+    const char* fn = "sinew_world_closest_points";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (!shape) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": shape is NULL");
+        if (!transform) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": transform is NULL");
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        if (!found) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": found is NULL");
+        World* bw = nullptr;
+        const BodyId id = find_body(body, fn, &bw);
+        if (id.is_null()) return SINEW_ERROR_STALE_ID;
+        if (bw != w) return invalid(fn, "body belongs to another world");
+        if (!std::isfinite(max_distance) || max_distance < 0)
+            return invalid(fn, "max_distance = " + to_text(max_distance) + " must be finite and >= 0");
+        Shape s;
+        Transform xf;
+        if (sinew_status st = query_shape(fn, *shape, *transform, s, xf)) return st;
+        ClosestPoints cp;
+        *found = 0;
+        if (w->rigid().closest_points(s, xf, id, Real(max_distance), cp)) {
+            *found = 1;
+            out->distance = float(cp.distance);
+            out->point_on_shape = to_c(cp.point_a);
+            out->point_on_body = to_c(cp.point_b);
+            out->normal = to_c(cp.normal);
         }
         return SINEW_OK;
     });
@@ -99,19 +225,9 @@ sinew_status sinew_world_overlap_shape(sinew_world_id world, const sinew_shape_d
         if (!shape) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": shape is NULL");
         if (!transform) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": transform is NULL");
         if (!count) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": count is NULL");
-        if (!finite(transform->p)) return invalid(fn, "transform->p must be finite");
-        const sinew_quat& q = transform->q;
-        const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-        if (!(std::isfinite(n2) && n2 > 1e-12f)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
         Shape s;
-        switch (enum_value(shape->type)) {
-            case SINEW_SHAPE_SPHERE: s = make_sphere(Real(shape->radius)); break;  // ShapeError names the value
-            case SINEW_SHAPE_BOX: s = make_box(to_vec(shape->half_extents)); break;
-            case SINEW_SHAPE_CAPSULE: s = make_capsule(Real(shape->half_height), Real(shape->radius)); break;
-            default:
-                return invalid(fn, "shape->type = " + std::to_string(enum_value(shape->type)) + " is not a sinew_shape_type");
-        }
-        const Transform xf{to_vec(transform->p), to_quat(q).normalized()};
+        Transform xf;
+        if (sinew_status st = query_shape(fn, *shape, *transform, s, xf)) return st;
         std::vector<BodyId>& found = scratch();
         w->rigid().overlap_shape(s, xf, found);
         return write_ids(fn, world, found, ids, capacity, count);

@@ -128,6 +128,9 @@ typedef struct sinew_filter {
     int32_t group_index;    /* 0 = none (default) */
 } sinew_filter;
 
+/** {1, 0xFFFFFFFF, 0}: category 1, collides with everything; a query filter that sees every body. */
+SINEW_API sinew_filter sinew_filter_default(void);
+
 typedef struct sinew_body_def {
     sinew_body_type type;     /* default SINEW_BODY_DYNAMIC */
     sinew_transform transform; /* body origin in the world, default identity */
@@ -520,6 +523,43 @@ typedef struct sinew_ray_hit {
  *  starts inside a solid shape does not hit that shape. *found = 1 and *hit filled, or *found = 0. */
 SINEW_API sinew_status sinew_world_ray_cast(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_ray_hit* hit,
                                             int* found);
+/** As sinew_world_ray_cast, for the bodies `filter` would collide with (Box2D's rule, as between two
+ *  bodies: each one's category must meet the other's mask, a shared negative group skips your own
+ *  ragdoll). sinew_filter's defaults see everything. */
+SINEW_API sinew_status sinew_world_ray_cast_filtered(sinew_world_id world, sinew_vec3 from, sinew_vec3 to,
+                                                     sinew_filter filter, sinew_ray_hit* hit, int* found);
+/** Every body the segment enters (one hit each, where it enters), by fraction: up to capacity hits written
+ *  to `hits` (may be NULL when capacity is 0), *count receives how many there are. */
+SINEW_API sinew_status sinew_world_ray_cast_all(sinew_world_id world, sinew_vec3 from, sinew_vec3 to, sinew_filter filter,
+                                                sinew_ray_hit* hits, int capacity, int* count);
+
+typedef struct sinew_shape_cast_hit {
+    sinew_body_id body;  /* the first body the swept shape touches */
+    sinew_vec3 point;    /* m, world: where they touch */
+    sinew_vec3 normal;   /* unit, world: the body's surface normal there, toward the swept shape */
+    float fraction;      /* [0, 1]: the shape touches after moving fraction * translation (0: it overlaps at the start) */
+} sinew_shape_cast_hit;
+
+/** Sweeps a sphere, box or capsule from `transform` along `translation` (m), keeping its rotation, and
+ *  finds the first body it touches among those `filter` collides with (a character's move, a thrown
+ *  object's path): the fraction is within 1e-5 m over the translation's length of the exact time of
+ *  impact. *found = 1 and *hit filled, or *found = 0. Sensors are not hit. */
+SINEW_API sinew_status sinew_world_cast_shape(sinew_world_id world, const sinew_shape_def* shape,
+                                              const sinew_transform* transform, sinew_vec3 translation,
+                                              sinew_filter filter, sinew_shape_cast_hit* hit, int* found);
+
+typedef struct sinew_closest_points {
+    float distance;             /* m; negative: they overlap by that depth */
+    sinew_vec3 point_on_shape;  /* m, world: on the query shape's surface */
+    sinew_vec3 point_on_body;   /* m, world: on the body's surface */
+    sinew_vec3 normal;          /* unit, world, from the shape toward the body */
+} sinew_closest_points;
+
+/** The closest points of a sphere, box or capsule at `transform` and `body`, if they are at most
+ *  max_distance (m, >= 0) apart: *found = 1 and *out filled, else *found = 0. */
+SINEW_API sinew_status sinew_world_closest_points(sinew_world_id world, const sinew_shape_def* shape,
+                                                  const sinew_transform* transform, sinew_body_id body,
+                                                  float max_distance, sinew_closest_points* out, int* found);
 /** Bodies whose world bounds overlap the box [lo, hi] (lo <= hi on every axis), in slot order. Up to
  *  capacity ids are written to ids (may be NULL when capacity is 0); *count receives how many overlap,
  *  which may exceed capacity (call again with a larger buffer). No allocation per call once warm. */

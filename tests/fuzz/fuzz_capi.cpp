@@ -339,6 +339,18 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
                 shape.half_extents = in.sane_vec();
                 const sinew_transform t{in.sane_vec(), {0, 0, 0, 1}};
                 s.watch(sinew_world_overlap_shape(s.world, &shape, &t, ids, 8, &count), "sinew_world_overlap_shape");
+                // The same shape swept and measured, from values already read (the corpus decodes as before).
+                const sinew_filter all = sinew_filter_default();
+                sinew_shape_cast_hit cast;
+                s.watch(sinew_world_cast_shape(s.world, &shape, &t, shape.half_extents, all, &cast, &found),
+                        "sinew_world_cast_shape");
+                sinew_ray_hit hits[4];
+                s.watch(sinew_world_ray_cast_all(s.world, t.p, shape.half_extents, all, hits, 4, &count), "sinew_world_ray_cast_all");
+                if (!s.bodies.empty()) {
+                    sinew_closest_points cp;
+                    s.watch(sinew_world_closest_points(s.world, &shape, &t, s.bodies.back(), shape.radius, &cp, &found),
+                            "sinew_world_closest_points");
+                }
                 break;
             }
             case 21: s.watch(sinew_body_set_material(s.body(in), in.value(), in.value()), "sinew_body_set_material"); break;
