@@ -328,6 +328,42 @@ Real JointSet::coordinate(JointId id, const RigidSystem& sys) const {
     }
 }
 
+Real JointSet::coordinate_speed(JointId id, const RigidSystem& sys) const {
+    const JointData& j = impl_->at(id, "coordinate_speed");
+    const RigidSystem::State& st = sys.state();
+    const std::uint32_t a = j.def.body_a.index, b = j.def.body_b.index;
+    const PairPose pose(st, j, a, b);
+    const Vec3 axis = pose.qa * j.axis_a;
+    // d = x_b + r_b - x_a - r_a moves at the anchors' relative velocity.
+    const Vec3 dd = st.v[b] + st.w[b].cross(pose.rb) - st.v[a] - st.w[a].cross(pose.ra);
+    switch (j.def.type) {
+        case JointType::Hinge: return (st.w[b] - st.w[a]).dot(axis);
+        case JointType::Slider: return dd.dot(axis) + pose.d.dot(st.w[a].cross(axis));  // the axis turns with A
+        case JointType::Distance: {
+            const Real len = pose.d.norm();
+            return len > 0 ? dd.dot(pose.d) / len : 0;
+        }
+        default: return 0;
+    }
+}
+
+void JointSet::set_limits(JointId id, bool enable, Real lower, Real upper) {
+    JointData& j = impl_->at(id, "set_limits");
+    JointDef d = j.def;
+    d.enable_limit = enable;
+    d.lower = lower;
+    d.upper = upper;
+    if (!is_finite(lower) || !is_finite(upper))
+        bad(d, "limits must be finite, got lower " + to_text(lower) + ", upper " + to_text(upper));
+    if (lower > upper) bad(d, "lower limit " + to_text(lower) + " is greater than upper limit " + to_text(upper));
+    if (d.type == JointType::Hinge && enable && (lower < -kPi || upper > kPi))
+        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + to_text(lower) + ", " + to_text(upper) + "]");
+    if (!enable) j.impulses.lower = j.impulses.upper = 0;
+    j.def.enable_limit = enable;
+    j.def.lower = lower;
+    j.def.upper = upper;
+}
+
 void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
     JointData& j = impl_->at(id, "set_motor");
     check_motor(j.def, speed, max_force);

@@ -63,9 +63,15 @@ public:
     /// The joint's free coordinate at the current poses: hinge angle (rad, 0 at creation), slider
     /// translation (m), distance (m) for a distance joint; 0 for ball and fixed joints.
     Real coordinate(JointId id, const RigidSystem& sys) const;
+    /// The rate of coordinate() at the current velocities: hinge rad/s, slider and distance m/s; 0 for
+    /// ball and fixed joints.
+    Real coordinate_speed(JointId id, const RigidSystem& sys) const;
     /// Changes a hinge / slider motor (validated as in create; throws RigidError). Does not wake the
     /// bodies: call RigidSystem::wake if they may be asleep.
     void set_motor(JointId id, bool enable, Real speed, Real max_force);
+    /// Changes a hinge / slider limit (validated as in create: finite, lower <= upper, a hinge's within
+    /// [-pi, pi]; throws RigidError). Does not wake the bodies.
+    void set_limits(JointId id, bool enable, Real lower, Real upper);
 
     // ---- ConstraintRows -----------------------------------------------------------------------------
     void prepare(RigidSystem& sys, const RowStep& step) override;

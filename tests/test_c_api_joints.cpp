@@ -6,7 +6,9 @@
 #include <cmath>
 #include <limits>
 #include <vector>
+#include <string>
 
+#include "engine/world/scene.hpp"
 #include "tests/test_c_api_util.hpp"
 
 using namespace capi_test;
@@ -339,4 +341,91 @@ TEST_CASE("C API joints: calls that change a stepping world are rejected with SI
     sinew_vec3 f;
     CHECK(sinew_joint_get_reaction(hinge, &f, nullptr) == SINEW_OK);  // still there
     REQUIRE(sinew_world_destroy(r.world) == SINEW_OK);
+}
+
+TEST_CASE("C API joints: hinge and slider coordinates and speeds, limits changed at run time", "[capi][joints]") {
+    // A hinge driven at 2 rad/s: the reported speed is the motor's and the angle advances 2 rad/s
+    // (0.5 s: 1 rad, read from the body's own rotation too).
+    Rig r = make_rig(0.0f, {0, 5, 0});
+    sinew_joint_def j = joint_between(r, SINEW_JOINT_HINGE);
+    j.enable_motor = 1;
+    j.motor_speed = 2;
+    j.max_motor_force = 100;
+    sinew_joint_id hinge;
+    REQUIRE(sinew_joint_create(r.world, &j, &hinge) == SINEW_OK);
+    steps(r.world, 30);
+    float angle = 0, speed = 0;
+    REQUIRE(sinew_joint_get_coordinate(hinge, &angle, &speed) == SINEW_OK);
+    CHECK(speed == Approx(2.0).epsilon(0.01));
+    CHECK(angle == Approx(angle_about_z(xf(r.bob).q)).margin(1e-4));
+    CHECK(angle == Approx(1.0).margin(0.03));  // the first step or so spins up
+    // A limit set now stops it at 1.2 rad; taken away, the motor turns on.
+    REQUIRE(sinew_joint_set_limits(hinge, 1, -1.2f, 1.2f) == SINEW_OK);
+    steps(r.world, 60);
+    REQUIRE(sinew_joint_get_coordinate(hinge, &angle, &speed) == SINEW_OK);
+    CHECK(angle == Approx(1.2).margin(0.02));
+    CHECK(std::abs(speed) < 0.05f);
+    REQUIRE(sinew_joint_set_limits(hinge, 0, 0, 0) == SINEW_OK);
+    steps(r.world, 10);
+    REQUIRE(sinew_joint_get_coordinate(hinge, nullptr, &speed) == SINEW_OK);
+    CHECK(speed == Approx(2.0).epsilon(0.01));
+    // Misuse: both pointers NULL, a reversed or out-of-range limit, a ball joint's limit, a bad flag.
+    const std::vector<float> before = fingerprint(r.world);
+    CHECK(sinew_joint_get_coordinate(hinge, nullptr, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_joint_set_limits(hinge, 1, 1, -1) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("greater than") != std::string::npos);
+    CHECK(sinew_joint_set_limits(hinge, 1, -4, 4) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_joint_set_limits(hinge, 1, NAN, 0) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_joint_set_limits(hinge, 2, 0, 0) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(fingerprint(r.world) == before);
+    REQUIRE(sinew_joint_destroy(hinge) == SINEW_OK);
+    CHECK(sinew_joint_get_coordinate(hinge, &angle, &speed) == SINEW_ERROR_STALE_ID);
+    REQUIRE(sinew_world_destroy(r.world) == SINEW_OK);
+
+    // A slider along y under gravity: free fall, so after 0.5 s the translation is -g t^2 / 2 and the
+    // speed -g t (semi-implicit Euler: within a step's worth).
+    Rig s = make_rig(-kG, {0, 5, 0});
+    j = joint_between(s, SINEW_JOINT_SLIDER);
+    j.local_axis_a = {0, 1, 0};
+    sinew_joint_id slider;
+    REQUIRE(sinew_joint_create(s.world, &j, &slider) == SINEW_OK);
+    steps(s.world, 30);
+    float x = 0;
+    REQUIRE(sinew_joint_get_coordinate(slider, &x, &speed) == SINEW_OK);
+    CHECK(x == Approx(-kG * 0.25f / 2).margin(kG * 0.5f / 60));
+    CHECK(speed == Approx(-kG * 0.5f).epsilon(0.01));
+    CHECK(x == Approx(xf(s.bob).p.y - 5).margin(1e-4));
+    REQUIRE(sinew_world_destroy(s.world) == SINEW_OK);
+}
+
+TEST_CASE("C API helpers: quaternions, interpolation and handle equality", "[capi]") {
+    const sinew_quat q = sinew_quat_from_axis_angle({0, 0, 2}, kPi / 2);  // any axis length
+    const sinew_vec3 y = sinew_quat_rotate(q, {1, 0, 0});
+    CHECK(y.x == Approx(0).margin(1e-6));
+    CHECK(y.y == Approx(1).margin(1e-6));
+    const sinew_quat id = sinew_quat_from_axis_angle({0, 0, 0}, 1);
+    CHECK(id.w == 1.0f);
+    // Euler angles as scene files read rotation_deg (x, then y, then z about fixed axes).
+    const sinew_quat e = sinew_quat_from_euler({0.3f, -0.7f, 1.1f});
+    const sinew::Quat ref = sinew::quat_from_euler_xyz_deg(sinew::Vec3(0.3, -0.7, 1.1) * sinew::Real(180 / M_PI));
+    CHECK(std::abs(std::abs(e.w * ref.w() + e.x * ref.x() + e.y * ref.y() + e.z * ref.z()) - 1) < 1e-5f);
+    // The product applies b first: 90 degrees about z then 90 about x takes x to y, then y to z.
+    const sinew_quat qx = sinew_quat_from_axis_angle({1, 0, 0}, kPi / 2);
+    const sinew_vec3 z = sinew_quat_rotate(sinew_quat_multiply(qx, q), {1, 0, 0});
+    CHECK(z.z == Approx(1).margin(1e-6));
+    // Halfway between the identity and a 90 degree turn: 45 degrees, and the midpoint.
+    const sinew_transform a = {{0, 0, 0}, {0, 0, 0, 1}}, b = {{2, 4, 0}, q};
+    const sinew_transform m = sinew_transform_interpolate(a, b, 0.5f);
+    CHECK(m.p.y == 2.0f);
+    CHECK(2 * std::atan2(m.q.z, m.q.w) == Approx(kPi / 4).margin(1e-5));
+    // The shorter arc: -q is the same rotation.
+    const sinew_transform nb = {{2, 4, 0}, {-q.x, -q.y, -q.z, -q.w}};
+    const sinew_transform m2 = sinew_transform_interpolate(a, nb, 0.5f);
+    CHECK(std::abs(2 * std::atan2(m2.q.z, m2.q.w)) == Approx(kPi / 4).margin(1e-5));
+    const sinew_body_id b1 = {1, 2, 3}, b2 = {1, 2, 4};
+    CHECK(sinew_body_id_equal(b1, b1) == 1);
+    CHECK(sinew_body_id_equal(b1, b2) == 0);
+    CHECK(sinew_joint_id_equal({1, 2, 3}, {1, 2, 3}) == 1);
+    CHECK(sinew_soft_body_id_equal({1, 2, 3}, {2, 2, 3}) == 0);
+    CHECK(sinew_world_id_equal({1, 1}, {1, 1}) == 1);
 }

@@ -219,4 +219,36 @@ sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, float speed
     });
 }
 
+sinew_status sinew_joint_set_limits(sinew_joint_id joint, int enable, float lower, float upper) {
+    const char* fn = "sinew_joint_set_limits";
+    return guarded(fn, [&] {
+        Target t = target(joint, fn, true);
+        if (t.status) return t.status;
+        RigidSystem& r = t.entry->world->rigid();
+        const JointDef& d = r.joints().def(t.joint);
+        if (d.type != JointType::Hinge && d.type != JointType::Slider)
+            return invalid(fn, std::string("joint is a ") + joint_type_name(d.type) +
+                                   " joint; only hinge and slider joints have limits");
+        if (enable != 0 && enable != 1) return invalid(fn, "enable = " + std::to_string(enable) + " must be 0 or 1");
+        const BodyId a = d.body_a, b = d.body_b;
+        r.joints().set_limits(t.joint, enable == 1, Real(lower), Real(upper));  // RigidError names a bad range
+        if (r.valid(a)) r.wake(a);
+        if (r.valid(b)) r.wake(b);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_joint_get_coordinate(sinew_joint_id joint, float* value, float* speed) {
+    const char* fn = "sinew_joint_get_coordinate";
+    return guarded(fn, [&] {
+        if (!value && !speed) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": value and speed are both NULL");
+        Target t = target(joint, fn, false);
+        if (t.status) return t.status;
+        const RigidSystem& r = t.entry->world->rigid();
+        if (value) *value = float(r.joints().coordinate(t.joint, r));
+        if (speed) *speed = float(r.joints().coordinate_speed(t.joint, r));
+        return SINEW_OK;
+    });
+}
+
 }  // extern "C"

@@ -407,6 +407,13 @@ SINEW_API sinew_status sinew_joint_destroy(sinew_joint_id joint);
 SINEW_API sinew_status sinew_joint_get_reaction(sinew_joint_id joint, sinew_vec3* force, sinew_vec3* torque);
 /** Changes a hinge or slider motor (enable 0 or 1, speed finite, max_force >= 0) and wakes its bodies. */
 SINEW_API sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, float speed, float max_force);
+/** Changes a hinge or slider limit (enable 0 or 1; lower <= upper, finite; a hinge's within [-pi, pi] rad)
+ *  and wakes its bodies. */
+SINEW_API sinew_status sinew_joint_set_limits(sinew_joint_id joint, int enable, float lower, float upper);
+/** The joint's free coordinate and its rate now: hinge angle (rad, 0 at creation, in (-pi, pi]) and
+ *  angular speed (rad/s) about the axis, slider translation (m) and speed (m/s) along it, distance joint
+ *  length (m) and its rate (m/s); 0 for ball and fixed joints. Either pointer may be NULL, not both. */
+SINEW_API sinew_status sinew_joint_get_coordinate(sinew_joint_id joint, float* value, float* speed);
 
 /* ==== Scenes ========================================================================================
  * Scene files are documented in docs/scene-format.md (the same files `sinew run` steps). */
@@ -653,6 +660,28 @@ typedef struct sinew_allocator {
  *  hooks must stay callable that long; changing them affects worlds created afterwards. NULL restores
  *  malloc/free. alloc and free must both be set. */
 SINEW_API sinew_status sinew_set_allocator(const sinew_allocator* allocator);
+
+/* ---- helpers (no world needed) ---------------------------------------------------------------------
+ * Quaternions are {x, y, z, w} here; scene files write [w, x, y, z]. */
+
+/** The rotation by `angle` (rad) about `axis` (any length > 0); the identity for a zero or non-finite axis. */
+SINEW_API sinew_quat sinew_quat_from_axis_angle(sinew_vec3 axis, float angle);
+/** The rotation by radians.x about the fixed x axis, then radians.y about y, then radians.z about z (as a
+ *  scene file's "rotation_deg", in radians); the identity for non-finite angles. */
+SINEW_API sinew_quat sinew_quat_from_euler(sinew_vec3 radians);
+/** a * b: b's rotation first, then a's. */
+SINEW_API sinew_quat sinew_quat_multiply(sinew_quat a, sinew_quat b);
+/** v rotated by the unit quaternion q. */
+SINEW_API sinew_vec3 sinew_quat_rotate(sinew_quat q, sinew_vec3 v);
+/** For rendering between fixed steps: the position lerped and the rotation nlerped along the shorter arc
+ *  from a (alpha 0) to b (alpha 1). Keep each body's transform from before the last step yourself (as
+ *  demos/c/game_loop.c does) and pass the alpha sinew_world_step returned. */
+SINEW_API sinew_transform sinew_transform_interpolate(sinew_transform a, sinew_transform b, float alpha);
+/** 1 if the handles are the same (all fields equal), else 0. */
+SINEW_API int sinew_world_id_equal(sinew_world_id a, sinew_world_id b);
+SINEW_API int sinew_body_id_equal(sinew_body_id a, sinew_body_id b);
+SINEW_API int sinew_soft_body_id_equal(sinew_soft_body_id a, sinew_soft_body_id b);
+SINEW_API int sinew_joint_id_equal(sinew_joint_id a, sinew_joint_id b);
 
 #ifdef __cplusplus
 }
