@@ -263,3 +263,121 @@ TEST_CASE("C API shape casts, closest points and filtered and all-hit ray casts"
     CHECK(fingerprint(w) == before);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+TEST_CASE("C API shapes: hulls, planes, meshes and compounds rest where closed forms put them", "[capi][shapes]") {
+    sinew_world_id w = make_world();
+    // Ground: a plane at y = 0 on the left (x < 0), a two-triangle mesh at y = 1 on the right.
+    sinew_body_def plane = sinew_body_def_default();
+    plane.type = SINEW_BODY_STATIC;
+    plane.shape.type = SINEW_SHAPE_PLANE;
+    sinew_body_id ground;
+    REQUIRE(sinew_body_create(w, &plane, &ground) == SINEW_OK);
+    const sinew_vec3 quad[4] = {{2, 1, -3}, {8, 1, -3}, {8, 1, 3}, {2, 1, 3}};
+    const uint32_t tris[6] = {0, 2, 1, 0, 3, 2};
+    sinew_body_def mesh = sinew_body_def_default();
+    mesh.type = SINEW_BODY_STATIC;
+    mesh.shape.type = SINEW_SHAPE_MESH;
+    mesh.shape.points = quad;
+    mesh.shape.point_count = 4;
+    mesh.shape.indices = tris;
+    mesh.shape.index_count = 6;
+    sinew_body_id shelf;
+    REQUIRE(sinew_body_create(w, &mesh, &shelf) == SINEW_OK);
+    // A hull of a 0.6 m cube's corners (plus its centre, which the hull drops) on the plane at x = -3.
+    sinew_vec3 corners[9];
+    for (int k = 0; k < 8; ++k) corners[k] = {k & 1 ? 0.3f : -0.3f, k & 2 ? 0.3f : -0.3f, k & 4 ? 0.3f : -0.3f};
+    corners[8] = {0, 0, 0};
+    sinew_body_def hull = sinew_body_def_default();
+    hull.shape.type = SINEW_SHAPE_HULL;
+    hull.shape.points = corners;
+    hull.shape.point_count = 9;
+    hull.transform.p = {-3, 1, 0};
+    sinew_body_id cube;
+    REQUIRE(sinew_body_create(w, &hull, &cube) == SINEW_OK);
+    // A dumbbell on the mesh: two 0.2 m spheres 1 m apart on a thin capsule along x (turned from y).
+    sinew_compound_child parts[3];
+    parts[0].transform = {{-0.5f, 0, 0}, {0, 0, 0, 1}};
+    parts[0].shape = sinew_shape_def_default();
+    parts[0].shape.type = SINEW_SHAPE_SPHERE;
+    parts[0].shape.radius = 0.2f;
+    parts[1] = parts[0];
+    parts[1].transform.p.x = 0.5f;
+    parts[2].transform = {{0, 0, 0}, sinew_quat_from_axis_angle({0, 0, 1}, 1.5707963f)};
+    parts[2].shape = sinew_shape_def_default();
+    parts[2].shape.type = SINEW_SHAPE_CAPSULE;
+    parts[2].shape.radius = 0.05f;
+    parts[2].shape.half_height = 0.5f;
+    sinew_body_def bell = sinew_body_def_default();
+    bell.shape.type = SINEW_SHAPE_COMPOUND;
+    bell.shape.children = parts;
+    bell.shape.child_count = 3;
+    bell.transform.p = {5, 2, 0};
+    sinew_body_id dumbbell;
+    REQUIRE(sinew_body_create(w, &bell, &dumbbell) == SINEW_OK);
+    // Mass from density 1000: the spheres' 2 x 33.5 kg plus the capsule's 8.4 kg.
+    float mass = 0;
+    REQUIRE(sinew_body_get_mass(dumbbell, &mass) == SINEW_OK);
+    const double pi = 3.14159265358979;
+    const double expected = 1000 * (2 * 4.0 / 3 * pi * 0.008 + pi * 0.0025 * 1.0 + 4.0 / 3 * pi * 0.000125);
+    CHECK(mass == Approx(expected).epsilon(1e-3));
+    for (int i = 0; i < 120; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(cube, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(0.3).margin(0.01));  // the hull's half height above the plane
+    REQUIRE(sinew_body_get_transform(dumbbell, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(1.2).margin(0.01));  // the spheres' radius above the mesh
+    CHECK(t.p.x == Approx(5).margin(0.01));
+
+    // Misuse, each naming the field, the world unchanged.
+    const std::vector<float> before = fingerprint(w);
+    sinew_body_id id;
+    auto refused = [&](const sinew_body_def& d, const char* fragment) {
+        CHECK(sinew_body_create(w, &d, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+        CHECK_THAT(std::string(sinew_last_error()), Catch::Contains(fragment));
+    };
+    sinew_body_def d = hull;
+    d.shape.point_count = 3;
+    refused(d, "def->shape.point_count");
+    d = hull;
+    d.shape.points = nullptr;
+    refused(d, "def->shape.points is NULL");
+    sinew_vec3 nan_corners[9];
+    for (int k = 0; k < 9; ++k) nan_corners[k] = corners[k];
+    nan_corners[4].y = NAN;
+    d.shape.points = nan_corners;
+    refused(d, "def->shape.points[4]");
+    d = mesh;
+    const uint32_t far[6] = {0, 2, 1, 0, 3, 9};
+    d.shape.indices = far;
+    refused(d, "index");
+    d = mesh;
+    d.shape.index_count = 5;
+    refused(d, "def->shape.index_count");
+    d = mesh;
+    d.type = SINEW_BODY_DYNAMIC;
+    refused(d, "static");
+    d = plane;
+    d.type = SINEW_BODY_DYNAMIC;
+    refused(d, "static");
+    sinew_compound_child nested[1];
+    nested[0].transform = {{0, 0, 0}, {0, 0, 0, 1}};
+    nested[0].shape = bell.shape;
+    d = bell;
+    d.shape.children = nested;
+    d.shape.child_count = 1;
+    refused(d, "def->shape.children[0].shape.type");
+    d = bell;
+    d.shape.child_count = 0;
+    refused(d, "def->shape.child_count");
+    parts[1].transform.q = {0, 0, 0, 0};
+    refused(bell, "def->shape.children[1].transform");
+    CHECK(fingerprint(w) == before);
+    // A hull as a query shape; a plane is refused as one.
+    sinew_body_id ids[4];
+    int count = 0;
+    const sinew_transform at_cube = {{-3, 0.3f, 0}, {0, 0, 0, 1}};
+    REQUIRE(sinew_world_overlap_shape(w, &hull.shape, &at_cube, ids, 4, &count) == SINEW_OK);
+    CHECK(count == 2);  // the hull body and the plane
+    CHECK(sinew_world_overlap_shape(w, &plane.shape, &at_cube, ids, 4, &count) == SINEW_ERROR_INVALID_ARGUMENT);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}

@@ -10,16 +10,6 @@ using namespace sinew::capi;
 namespace {
 
 /// Checks and converts a shape definition; the factories check the dimensions.
-Shape make_shape(const sinew_shape_def& d) {
-    switch (enum_value(d.type)) {
-        case SINEW_SHAPE_SPHERE: return make_sphere(Real(d.radius));
-        case SINEW_SHAPE_BOX: return make_box(to_vec(d.half_extents));
-        case SINEW_SHAPE_CAPSULE: return make_capsule(Real(d.half_height), Real(d.radius));
-        default: break;
-    }
-    throw ShapeError("def->shape.type = " + std::to_string(enum_value(d.type)) + " is not a sinew_shape_type");
-}
-
 bool unit_quat_ok(const sinew_quat& q) {
     const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
     return std::isfinite(n2) && n2 > 1e-12f;
@@ -54,10 +44,7 @@ sinew_body_def sinew_body_def_default(void) {
     d.transform = {{0, 0, 0}, {0, 0, 0, 1}};
     d.linear_velocity = {0, 0, 0};
     d.angular_velocity = {0, 0, 0};
-    d.shape.type = SINEW_SHAPE_BOX;
-    d.shape.radius = 0.5f;
-    d.shape.half_height = 0.5f;
-    d.shape.half_extents = {0.5f, 0.5f, 0.5f};
+    d.shape = sinew_shape_def_default();
     const Material m;
     d.mass = 0;
     d.density = float(m.density);
@@ -97,7 +84,7 @@ sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, 
         b.pose = {to_vec(def->transform.p), to_quat(def->transform.q).normalized()};
         b.linear_velocity = to_vec(def->linear_velocity);
         b.angular_velocity = to_vec(def->angular_velocity);
-        b.shape = make_shape(def->shape);  // ShapeError names the bad dimension
+        b.shape = make_shape(def->shape, "def->shape");  // ShapeError names the bad field
         b.mass = Real(def->mass);
         b.material.density = Real(def->density);
         b.material.friction = Real(def->friction);

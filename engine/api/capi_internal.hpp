@@ -62,6 +62,9 @@ inline sinew_transform to_c(const Transform& t) {
     return {to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
 }
 bool finite(const sinew_vec3& v);
+/// The shape a sinew_shape_def describes (engine/api/capi_shape.cpp); ShapeError names the bad field,
+/// starting with `where` ("def->shape").
+Shape make_shape(const sinew_shape_def& d, const char* where);
 
 /// The integer a C caller stored in an enum field. Reading an out-of-range value through the C++ enum
 /// type would be undefined behaviour (UBSan flags it), so the bytes are read as an int.

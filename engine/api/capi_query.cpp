@@ -29,19 +29,17 @@ std::vector<BodyId>& scratch() {
     return ids;
 }
 
-/// A query's shape and pose from C (sphere, box or capsule; ShapeError names a bad dimension).
+/// A query's shape and pose from C (any shape but a plane or a mesh; ShapeError names a bad field).
 sinew_status query_shape(const char* fn, const sinew_shape_def& shape, const sinew_transform& transform, Shape& s,
                          Transform& xf) {
     if (!finite(transform.p)) return invalid(fn, "transform->p must be finite");
     const sinew_quat& q = transform.q;
     const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
     if (!(std::isfinite(n2) && n2 > 1e-12f)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
-    switch (enum_value(shape.type)) {
-        case SINEW_SHAPE_SPHERE: s = make_sphere(Real(shape.radius)); break;
-        case SINEW_SHAPE_BOX: s = make_box(to_vec(shape.half_extents)); break;
-        case SINEW_SHAPE_CAPSULE: s = make_capsule(Real(shape.half_height), Real(shape.radius)); break;
-        default: return invalid(fn, "shape->type = " + std::to_string(enum_value(shape.type)) + " is not a sinew_shape_type");
-    }
+    const int type = enum_value(shape.type);
+    if (type == SINEW_SHAPE_PLANE || type == SINEW_SHAPE_MESH)
+        return invalid(fn, "shape->type = " + std::to_string(type) + ": a query shape must not be a plane or a mesh");
+    s = make_shape(shape, "shape->");  // ShapeError names the bad field
     xf = {to_vec(transform.p), to_quat(q).normalized()};
     return SINEW_OK;
 }

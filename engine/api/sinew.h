@@ -109,14 +109,42 @@ typedef struct sinew_world_def {
 } sinew_world_def;
 
 typedef enum sinew_body_type { SINEW_BODY_STATIC = 0, SINEW_BODY_KINEMATIC = 1, SINEW_BODY_DYNAMIC = 2 } sinew_body_type;
-typedef enum sinew_shape_type { SINEW_SHAPE_SPHERE = 0, SINEW_SHAPE_BOX = 1, SINEW_SHAPE_CAPSULE = 2 } sinew_shape_type;
+typedef enum sinew_shape_type {
+    SINEW_SHAPE_SPHERE = 0,
+    SINEW_SHAPE_BOX = 1,
+    SINEW_SHAPE_CAPSULE = 2,
+    SINEW_SHAPE_HULL = 3,    /* the convex hull of `points` (at least 4, not all in a plane) */
+    SINEW_SHAPE_PLANE = 4,   /* normal . x = offset, solid below; static bodies only */
+    SINEW_SHAPE_MESH = 5,    /* triangles `indices` over the vertices `points`; static bodies only */
+    SINEW_SHAPE_COMPOUND = 6 /* several shapes in one body: `children` (no compound inside a compound) */
+} sinew_shape_type;
 
+struct sinew_compound_child;
+
+/* A shape in its body's frame (m). Every array is copied when the body is made: it may be freed after. */
 typedef struct sinew_shape_def {
     sinew_shape_type type; /* default SINEW_SHAPE_BOX */
     float radius;          /* m: sphere, capsule (default 0.5) */
     float half_height;     /* m: capsule segment half length along local y (default 0.5) */
     sinew_vec3 half_extents; /* m: box (default 0.5, 0.5, 0.5) */
+    const sinew_vec3* points; /* hull: points to wrap; mesh: vertices (m) (default NULL) */
+    int point_count;          /* hull: >= 4; mesh: >= 3 (default 0) */
+    const uint32_t* indices;  /* mesh: 3 vertex indices per triangle (default NULL) */
+    int index_count;          /* mesh: a positive multiple of 3 (default 0) */
+    sinew_vec3 normal;        /* plane: non-zero, normalised on use (default (0, 1, 0)) */
+    float offset;             /* plane: m along the unit normal (default 0) */
+    const struct sinew_compound_child* children; /* compound (default NULL) */
+    int child_count;          /* compound: >= 1 (default 0) */
 } sinew_shape_def;
+
+/* One part of a compound: a shape placed in the body's frame. */
+typedef struct sinew_compound_child {
+    sinew_transform transform; /* the child's frame in the body's (m; unit quaternion) */
+    sinew_shape_def shape;     /* sphere, box, capsule or hull */
+} sinew_compound_child;
+
+/** A box of half extents 0.5 m, every other field at its default (the shape of sinew_body_def_default). */
+SINEW_API sinew_shape_def sinew_shape_def_default(void);
 
 /* Which bodies may touch (Box2D's rule): two bodies of the same non-zero group_index always collide
  * (> 0) or never (< 0); otherwise each one's category_bits must meet the other's mask_bits. Soft bodies
@@ -147,7 +175,7 @@ typedef struct sinew_body_def {
     float gravity_scale;      /* multiplies the world's gravity for this body, finite (default 1) */
     int allow_sleep;          /* 0 or 1 (default 1) */
     int is_sensor;            /* 1: a trigger volume that reports overlaps and touches nothing (no contacts,
-                                 not found by queries); its shape must be a sphere, box or capsule. Any body
+                                 not found by queries); its shape must not be a plane or mesh. Any body
                                  type; fixed at creation (default 0). See the sensor events. */
     uint64_t user_data;       /* yours, returned by sinew_body_user_data() */
 } sinew_body_def;
