@@ -382,6 +382,8 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
     material_[id.index].friction = m.friction;
     material_[id.index].restitution = m.restitution;
 }
+Vec3 RigidSystem::local_center(BodyId id) const { check(id, "local_center"); return local_com_[id.index]; }
+const Mat3& RigidSystem::inertia_local(BodyId id) const { check(id, "inertia_local"); return inertia_local_[id.index]; }
 bool RigidSystem::is_sensor(BodyId id) const { check(id, "is_sensor"); return sensor_[id.index] != 0; }
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
 const CollisionFilter& RigidSystem::filter(BodyId id) const { check(id, "filter"); return filter_[id.index]; }

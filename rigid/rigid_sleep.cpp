@@ -3,6 +3,7 @@
 #include "rigid/rigid_system.hpp"
 
 #include <algorithm>
+#include <string>
 
 #include "rigid/joint_set.hpp"
 
@@ -34,6 +35,23 @@ void RigidSystem::wake_island(std::uint32_t s) {
             Mat3 r = state_.q[i].toRotationMatrix();
             state_.inv_mass[i] = body_inv_mass_[i];
             state_.inv_inertia_world[i] = r * inv_inertia_local_[i] * r.transpose();
+        }
+}
+
+void RigidSystem::sleep(BodyId id) {
+    check(id, "sleep");
+    const std::uint32_t s = id.index;
+    if (type_[s] != BodyType::Dynamic)
+        throw RigidError(std::string("sleep: only dynamic bodies sleep, body {index ") + std::to_string(s) + "} is " +
+                         body_type_name(type_[s]));
+    // The island from the last update_sleep() (a body created since is its own island).
+    const std::uint32_t root = find_root(s);
+    for (std::uint32_t i = 0; i < slots_.size(); ++i)
+        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && awake_[i] && (i == s || find_root(i) == root)) {
+            awake_[i] = false;
+            sleep_timer_[i] = 0;
+            state_.v[i].setZero();
+            state_.w[i].setZero();
         }
 }
 

@@ -178,6 +178,15 @@ public:
     /// Dynamic bodies awake now.
     std::size_t awake_count() const;
     void wake(BodyId id);
+    /// Puts a dynamic body's island (as of the last step) to sleep now, velocities zeroed, whether or not
+    /// automatic sleeping is on (Box2D's b2Body_SetAwake(false)): it stays asleep until something wakes
+    /// it (a contact with an awake body, wake(), a change made to it). Throws RigidError for a body
+    /// that is not dynamic.
+    void sleep(BodyId id);
+    /// The centre of mass in the body's frame (m; zero for static and kinematic bodies).
+    Vec3 local_center(BodyId id) const;
+    /// The inertia about the centre of mass in the body's axes (kg m^2; zero unless dynamic).
+    const Mat3& inertia_local(BodyId id) const;
     std::uint64_t user_data(BodyId id) const;
 
     // ---- joints (rigid/joint.hpp) ---------------------------------------------------------------------

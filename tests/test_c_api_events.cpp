@@ -307,3 +307,73 @@ TEST_CASE("C API body def: gravity_scale and allow_sleep are honoured at creatio
     CHECK(awake == 1);  // at rest for 2 s, yet never asleep
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+TEST_CASE("C API body control: put to sleep in mid-air, mass data, world counters", "[capi][events]") {
+    sinew_world_id w = make_world();
+    const sinew_body_id ground = add_ground(w);
+    sinew_body_def d = sinew_body_def_default();
+    d.mass = 6;
+    d.shape.half_extents = {0.5f, 0.25f, 0.125f};
+    d.transform.p = {0, 3, 0};
+    sinew_body_id box;
+    REQUIRE(sinew_body_create(w, &d, &box) == SINEW_OK);
+    // A box's inertia about its centre: m (b^2 + c^2) / 3 for half extents a, b, c.
+    sinew_mass_data md;
+    REQUIRE(sinew_body_get_mass_data(box, &md) == SINEW_OK);
+    CHECK(md.mass == Approx(6));
+    CHECK(md.inertia[0] == Approx(2 * (0.0625 + 0.015625)).epsilon(1e-5));
+    CHECK(md.inertia[4] == Approx(2 * (0.25 + 0.015625)).epsilon(1e-5));
+    CHECK(md.inertia[8] == Approx(2 * (0.25 + 0.0625)).epsilon(1e-5));
+    CHECK(md.inertia[1] == 0.0f);
+    CHECK(md.local_center.x == 0.0f);
+    // Put to sleep while falling: it hangs where it is until woken, then falls on.
+    for (int i = 0; i < 10; ++i) step_events(w);
+    REQUIRE(sinew_body_sleep(box) == SINEW_OK);
+    sinew_transform before, after;
+    REQUIRE(sinew_body_get_transform(box, &before) == SINEW_OK);
+    int awake = 1;
+    REQUIRE(sinew_body_is_awake(box, &awake) == SINEW_OK);
+    CHECK(awake == 0);
+    for (int i = 0; i < 60; ++i) step_events(w);
+    REQUIRE(sinew_body_get_transform(box, &after) == SINEW_OK);
+    CHECK(after.p.y == before.p.y);
+    REQUIRE(sinew_body_wake(box) == SINEW_OK);
+    for (int i = 0; i < 120; ++i) step_events(w);
+    REQUIRE(sinew_body_get_transform(box, &after) == SINEW_OK);
+    CHECK(after.p.y == Approx(0.25).margin(0.01));  // on the ground
+    // Counters: two bodies, one touching pair of four points, the steps taken.
+    sinew_world_counters c;
+    REQUIRE(sinew_world_get_counters(w, &c) == SINEW_OK);
+    CHECK(c.body_count == 2);
+    CHECK(c.soft_body_count == 0);
+    CHECK(c.joint_count == 0);
+    CHECK(c.contact_count == 1);
+    CHECK(c.contact_point_count == 4);
+    CHECK(c.step_count == 190);
+    CHECK(c.step_ms >= 0);
+    for (float ms : c.stage_ms) CHECK(ms >= 0);
+    // An off-centre compound: spheres of radius 0.2 and 0.1 at x = -0.5 and 0.5 (masses 8 : 1).
+    sinew_compound_child parts[2];
+    for (int k = 0; k < 2; ++k) {
+        parts[k].transform = {{k == 0 ? -0.5f : 0.5f, 0, 0}, {0, 0, 0, 1}};
+        parts[k].shape = sinew_shape_def_default();
+        parts[k].shape.type = SINEW_SHAPE_SPHERE;
+        parts[k].shape.radius = k == 0 ? 0.2f : 0.1f;
+    }
+    sinew_body_def cd = sinew_body_def_default();
+    cd.shape.type = SINEW_SHAPE_COMPOUND;
+    cd.shape.children = parts;
+    cd.shape.child_count = 2;
+    cd.transform.p = {3, 3, 0};
+    sinew_body_id lopsided;
+    REQUIRE(sinew_body_create(w, &cd, &lopsided) == SINEW_OK);
+    REQUIRE(sinew_body_get_mass_data(lopsided, &md) == SINEW_OK);
+    CHECK(md.local_center.x == Approx((8 * -0.5 + 1 * 0.5) / 9.0).margin(1e-5));
+    // Misuse.
+    CHECK(sinew_body_sleep(ground) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_body_get_mass_data(box, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_world_get_counters(w, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    REQUIRE(sinew_body_destroy(box) == SINEW_OK);
+    CHECK(sinew_body_sleep(box) == SINEW_ERROR_STALE_ID);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}

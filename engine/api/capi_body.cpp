@@ -213,6 +213,32 @@ sinew_status sinew_body_wake(sinew_body_id body) {
     });
 }
 
+sinew_status sinew_body_sleep(sinew_body_id body) {
+    const char* fn = "sinew_body_sleep";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        t.world->rigid().sleep(t.body);  // RigidError: not dynamic
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_get_mass_data(sinew_body_id body, sinew_mass_data* out) {
+    const char* fn = "sinew_body_get_mass_data";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        const RigidSystem& r = t.world->rigid();
+        out->mass = float(r.mass(t.body));
+        out->local_center = to_c(r.local_center(t.body));
+        const Mat3& i = r.inertia_local(t.body);
+        for (int row = 0; row < 3; ++row)
+            for (int col = 0; col < 3; ++col) out->inertia[3 * row + col] = float(i(row, col));
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_body_is_awake(sinew_body_id body, int* out) {
     const char* fn = "sinew_body_is_awake";
     return guarded(fn, [&] {

@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "engine/api/capi_internal.hpp"
+#include "rigid/joint_set.hpp"
 #include "engine/core/format.hpp"
 
 using namespace sinew;
@@ -202,6 +203,33 @@ sinew_status sinew_world_body_count(sinew_world_id id, int* out) {
         World* w = find_world(id, "sinew_world_body_count");
         if (!w) return SINEW_ERROR_STALE_ID;
         *out = int(w->rigid().body_count());
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_counters(sinew_world_id id, sinew_world_counters* out) {
+    const char* fn = "sinew_world_get_counters";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        World* w = find_world(id, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        const RigidSystem& r = w->rigid();
+        sinew_world_counters c{};
+        c.body_count = int(r.body_count());
+        c.awake_body_count = int(r.awake_count());
+        c.soft_body_count = int(w->soft().body_count());
+        c.joint_count = int(r.joints().count());
+        for (const ContactManifold& m : r.contacts()) {
+            if (m.manifold.count == 0) continue;
+            ++c.contact_count;
+            c.contact_point_count += m.manifold.count;
+        }
+        c.step_count = w->step_count();
+        const Pipeline& p = w->pipeline();
+        c.step_ms = float(p.last_step_ms());
+        for (int stage = 0; stage < 4; ++stage)
+            for (int sys = 0; sys < p.system_count(); ++sys) c.stage_ms[stage] += float(p.timer(sys, Stage(stage)).last_ms);
+        *out = c;
         return SINEW_OK;
     });
 }

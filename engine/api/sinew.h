@@ -199,6 +199,21 @@ SINEW_API sinew_status sinew_world_step(sinew_world_id world, float frame_dt, in
 /** Exactly one fixed step of the world's time_step (SINEW_ERROR_NON_FINITE as sinew_world_step). */
 SINEW_API sinew_status sinew_world_step_fixed(sinew_world_id world);
 SINEW_API sinew_status sinew_world_body_count(sinew_world_id world, int* out);
+
+/* What a world holds and what its last step cost (for a game's profiler overlay). */
+typedef struct sinew_world_counters {
+    int body_count;          /* rigid bodies */
+    int awake_body_count;    /* dynamic rigid bodies awake */
+    int soft_body_count;
+    int joint_count;
+    int contact_count;       /* touching rigid body pairs' manifolds after the last step */
+    int contact_point_count; /* their points */
+    uint64_t step_count;     /* fixed steps taken */
+    float step_ms;           /* wall time of the last fixed step, ms */
+    float stage_ms[4];       /* of it, per stage summed over the systems: integrate velocities, detect
+                                collisions, solve velocities, integrate positions (docs/ARCHITECTURE.md) */
+} sinew_world_counters;
+SINEW_API sinew_status sinew_world_get_counters(sinew_world_id world, sinew_world_counters* out);
 /** Bulk read for rendering: up to capacity bodies, in creation order, ids and transforms (either array
  *  may be NULL); *count receives how many were written. No allocation. */
 SINEW_API sinew_status sinew_world_get_transforms(sinew_world_id world, sinew_body_id* ids, sinew_transform* transforms,
@@ -224,6 +239,18 @@ SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 i
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
 /** Wakes the body's island (a sleeping body is not simulated until something wakes it). */
 SINEW_API sinew_status sinew_body_wake(sinew_body_id body);
+/** Puts the dynamic body's island (the bodies it touched or was jointed to in the last step) to sleep now,
+ *  velocities zeroed, even with automatic sleeping off; it stays asleep until something wakes it (an
+ *  awake body touching it, sinew_body_wake, a change made to it). SINEW_ERROR_INVALID_ARGUMENT for a
+ *  static or kinematic body. */
+SINEW_API sinew_status sinew_body_sleep(sinew_body_id body);
+
+typedef struct sinew_mass_data {
+    float mass;              /* kg (0 for static and kinematic bodies) */
+    sinew_vec3 local_center; /* m: the centre of mass in the body's frame */
+    float inertia[9];        /* kg m^2: about the centre of mass, in the body's axes, row-major */
+} sinew_mass_data;
+SINEW_API sinew_status sinew_body_get_mass_data(sinew_body_id body, sinew_mass_data* out);
 /** *out = 1 if the body is awake, 0 if asleep (static bodies report 0). */
 SINEW_API sinew_status sinew_body_is_awake(sinew_body_id body, int* out);
 /** kg: the dynamic body's mass (0 for static and kinematic bodies). */
