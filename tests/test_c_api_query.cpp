@@ -381,3 +381,88 @@ TEST_CASE("C API shapes: hulls, planes, meshes and compounds rest where closed f
     CHECK(sinew_world_overlap_shape(w, &plane.shape, &at_cube, ids, 4, &count) == SINEW_ERROR_INVALID_ARGUMENT);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+namespace {
+struct DrawCounts {
+    int spheres = 0, capsules = 0, boxes = 0, triangles = 0, segments = 0, points = 0;
+    float sphere_radius_sum = 0;
+};
+}  // namespace
+
+TEST_CASE("C API debug draw hands every shape, joint, contact and soft surface to the host", "[capi][draw]") {
+    sinew_world_id w = make_world();
+    sinew_body_def plane = sinew_body_def_default();
+    plane.type = SINEW_BODY_STATIC;
+    plane.shape.type = SINEW_SHAPE_PLANE;
+    sinew_body_id id;
+    REQUIRE(sinew_body_create(w, &plane, &id) == SINEW_OK);                          // 2 triangles
+    sinew_body_def box = sinew_body_def_default();
+    box.transform.p = {0, 0.5f, 0};
+    REQUIRE(sinew_body_create(w, &box, &id) == SINEW_OK);                            // 1 box, 4 contact points
+    sinew_vec3 corners[8];
+    for (int k = 0; k < 8; ++k) corners[k] = {k & 1 ? 0.3f : -0.3f, k & 2 ? 0.3f : -0.3f, k & 4 ? 0.3f : -0.3f};
+    sinew_body_def hull = sinew_body_def_default();
+    hull.shape.type = SINEW_SHAPE_HULL;
+    hull.shape.points = corners;
+    hull.shape.point_count = 8;
+    hull.transform.p = {3, 5, 0};
+    hull.gravity_scale = 0;
+    REQUIRE(sinew_body_create(w, &hull, &id) == SINEW_OK);                           // 6 faces: 12 triangles
+    sinew_body_def ball = sinew_body_def_default();
+    ball.shape.type = SINEW_SHAPE_SPHERE;
+    ball.shape.radius = 0.25f;
+    ball.transform.p = {-3, 5, 0};
+    ball.gravity_scale = 0;
+    sinew_body_id a, b;
+    REQUIRE(sinew_body_create(w, &ball, &a) == SINEW_OK);                            // 1 sphere
+    sinew_body_def cap = ball;
+    cap.shape.type = SINEW_SHAPE_CAPSULE;
+    cap.transform.p = {-3, 4, 0};
+    REQUIRE(sinew_body_create(w, &cap, &b) == SINEW_OK);                             // 1 capsule
+    sinew_joint_def j = sinew_joint_def_default();
+    j.body_a = a;
+    j.body_b = b;
+    j.local_anchor_a = {0, -0.5f, 0};
+    j.local_anchor_b = {0, 0.5f, 0};
+    sinew_joint_id joint;
+    REQUIRE(sinew_joint_create(w, &j, &joint) == SINEW_OK);                          // 3 segments
+    sinew_soft_def sd = sinew_soft_def_default();
+    sinew_cloth_def cloth = sinew_cloth_def_default();
+    cloth.nx = cloth.ny = 3;
+    cloth.origin = {10, 3, 0};
+    sinew_soft_body_id soft;
+    REQUIRE(sinew_soft_create_cloth(w, &sd, &cloth, &soft) == SINEW_OK);             // 8 triangles
+    for (int i = 0; i < 30; ++i) REQUIRE(sinew_world_step_fixed(w) == SINEW_OK);
+
+    DrawCounts n;
+    sinew_debug_draw dd = sinew_debug_draw_default();
+    dd.context = &n;
+    dd.draw_sphere = [](void* c, sinew_vec3, float r, uint32_t) {
+        static_cast<DrawCounts*>(c)->spheres++;
+        static_cast<DrawCounts*>(c)->sphere_radius_sum += r;
+    };
+    dd.draw_capsule = [](void* c, sinew_vec3, sinew_vec3, float, uint32_t) { static_cast<DrawCounts*>(c)->capsules++; };
+    dd.draw_box = [](void* c, sinew_transform, sinew_vec3, uint32_t) { static_cast<DrawCounts*>(c)->boxes++; };
+    dd.draw_triangle = [](void* c, sinew_vec3, sinew_vec3, sinew_vec3, uint32_t) { static_cast<DrawCounts*>(c)->triangles++; };
+    dd.draw_segment = [](void* c, sinew_vec3, sinew_vec3, uint32_t) { static_cast<DrawCounts*>(c)->segments++; };
+    dd.draw_point = [](void* c, sinew_vec3, float, uint32_t) { static_cast<DrawCounts*>(c)->points++; };
+    REQUIRE(sinew_world_draw(w, &dd) == SINEW_OK);
+    CHECK(n.spheres == 1);
+    CHECK(n.sphere_radius_sum == 0.25f);
+    CHECK(n.capsules == 1);
+    CHECK(n.boxes == 1);
+    CHECK(n.triangles == 2 + 12 + 8);
+    CHECK(n.points == 4);
+    CHECK(n.segments == 3 + 4);
+    // Switched off, or with no callbacks, nothing is drawn and nothing fails.
+    DrawCounts none;
+    dd.context = &none;
+    dd.draw_shapes = dd.draw_joints = dd.draw_contacts = dd.draw_soft_bodies = 0;
+    REQUIRE(sinew_world_draw(w, &dd) == SINEW_OK);
+    CHECK(none.triangles + none.segments + none.points + none.spheres == 0);
+    const sinew_debug_draw empty = sinew_debug_draw_default();
+    CHECK(sinew_world_draw(w, &empty) == SINEW_OK);
+    CHECK(sinew_world_draw(w, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+    CHECK(sinew_world_draw(w, &empty) == SINEW_ERROR_STALE_ID);
+}

@@ -716,6 +716,37 @@ typedef struct sinew_allocator {
  *  malloc/free. alloc and free must both be set. */
 SINEW_API sinew_status sinew_set_allocator(const sinew_allocator* allocator);
 
+/* ==== Debug draw ====================================================================================
+ * The host's renderer draws the world through these callbacks (any may be NULL: that primitive is not
+ * drawn). Colours are 0xRRGGBB: static bodies grey, kinematic amber, dynamic awake green, asleep
+ * blue-grey, sensors light green, soft bodies blue, contacts red (points; pink for a speculative point,
+ * still apart within the contact margin) and yellow (normals, 0.2 m), joints cyan (each body's centre to its anchor, and the anchors joined). */
+typedef struct sinew_debug_draw {
+    void (*draw_sphere)(void* context, sinew_vec3 center, float radius, uint32_t color);
+    /* A capsule: the segment a-b swept by radius. */
+    void (*draw_capsule)(void* context, sinew_vec3 a, sinew_vec3 b, float radius, uint32_t color);
+    /* A box: its centre and rotation, and its half extents along its own axes. */
+    void (*draw_box)(void* context, sinew_transform transform, sinew_vec3 half_extents, uint32_t color);
+    /* Hull faces (fanned), mesh triangles, soft surfaces, planes (a 100 m square around the point
+     * nearest the origin), counter-clockwise seen from outside. */
+    void (*draw_triangle)(void* context, sinew_vec3 a, sinew_vec3 b, sinew_vec3 c, uint32_t color);
+    /* Joints, contact normals, soft links of bodies without a surface (ropes). */
+    void (*draw_segment)(void* context, sinew_vec3 a, sinew_vec3 b, uint32_t color);
+    /* Contact points (size 0.05 m). */
+    void (*draw_point)(void* context, sinew_vec3 p, float size, uint32_t color);
+    int draw_shapes;      /* 0 or 1: rigid bodies' shapes */
+    int draw_joints;      /* 0 or 1 */
+    int draw_contacts;    /* 0 or 1: the points of the last step's manifolds and their normals */
+    int draw_soft_bodies; /* 0 or 1 */
+    void* context;        /* passed to every callback */
+} sinew_debug_draw;
+
+/** All of it on (callbacks NULL: set the ones your renderer has). */
+SINEW_API sinew_debug_draw sinew_debug_draw_default(void);
+/** Calls the callbacks for the world as it is now, on the calling thread, in body slot order. Not during
+ *  a step (SINEW_ERROR_IN_STEP); the callbacks must not change the world. */
+SINEW_API sinew_status sinew_world_draw(sinew_world_id world, const sinew_debug_draw* draw);
+
 /* ---- helpers (no world needed) ---------------------------------------------------------------------
  * Quaternions are {x, y, z, w} here; scene files write [w, x, y, z]. */
 
