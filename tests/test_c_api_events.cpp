@@ -87,6 +87,10 @@ TEST_CASE("C API events: a dropped box begins touching once, falls asleep once, 
             // (v_after = -gap / h) and the next step stops it; 1 % covers the solver's iterations.
             CHECK(c.normal_impulse == Approx(std::abs(v_before.y) + kG * kH - std::abs(v_after.y)).epsilon(0.01));
             CHECK(c.normal_impulse > 0);
+            // The hit's strength: the box's fall speed when the step began (the soft step gives gravity
+            // inside the solve, split impulses before it: within g h = 0.16 m/s of |v_before|).
+            CHECK(c.approach_speed == Approx(std::abs(v_before.y)).margin(kG * kH + 1e-3f));
+            CHECK(c.approach_speed > 4.0f);  // sqrt(2 g 1 m) = 4.43 m/s, a step or two early
         }
         ends += e.contact_end_count;
         for (int k = 0; k < e.sleep_count; ++k) {

@@ -32,6 +32,7 @@ WorldEvents::WorldEvents(World& world, const HostHooks& hooks)
       awake_before_(HostAllocator<std::uint8_t>(hooks)),
       generation_before_(HostAllocator<std::uint32_t>(hooks)),
       pairs_(HostAllocator<Pair>(hooks)),
+      approach_(HostAllocator<Approach>(hooks)),
       new_pairs_(HostAllocator<Pair>(hooks)),
       joints_(HostAllocator<JointMeta>(hooks)) {
     Pipeline& p = world.pipeline();
@@ -39,12 +40,15 @@ WorldEvents::WorldEvents(World& world, const HostHooks& hooks)
     // Before the first stage of the step and after the last stage of the last system: the whole step.
     hook_before_ = p.add_hook(rigid, Stage::IntegrateVelocities, HookWhen::Before,
                               [this](const StepContext&) { before_step(); }, "C API events: before");
+    hook_solve_ = p.add_hook(rigid, Stage::DetectCollisions, HookWhen::After, [this](const StepContext&) { before_solve(); },
+                             "C API events: approach speeds");
     hook_after_ = p.add_hook(p.system_count() - 1, Stage::IntegratePositions, HookWhen::After,
                              [this](const StepContext& ctx) { after_step(ctx.step_index + 1); }, "C API events: after");
 }
 
 WorldEvents::~WorldEvents() {
     world_.pipeline().remove_hook(hook_after_);
+    world_.pipeline().remove_hook(hook_solve_);
     world_.pipeline().remove_hook(hook_before_);
 }
 
@@ -106,6 +110,34 @@ void WorldEvents::before_step() {
         const BodyId id = r.id_of_slot(s);
         awake_before_[s] = r.awake(id) ? 1 : 0;
         generation_before_[s] = id.generation;
+    }
+}
+
+void WorldEvents::before_solve() {
+    approach_.clear();
+    const RigidSystem& r = world_.rigid();
+    const RigidSystem::State& st = r.state();
+    const std::vector<ContactManifold>& contacts = r.contacts();
+    for (const ContactManifold& c : contacts) {
+        if (c.manifold.count == 0) continue;
+        std::uint32_t a = c.body_a, b = c.body_b;
+        if (a > b) std::swap(a, b);
+        const Pair p{a, r.id_of_slot(a).generation, b, r.id_of_slot(b).generation, 0};
+        if (!approach_.empty() && approach_.back().pair == p) continue;  // the pair's first manifold decides
+        if (std::binary_search(pairs_.begin(), pairs_.end(), p)) continue;  // touching already
+        // Relative velocity of B's point against A's along the normal from A to B (in the manifold's
+        // own order): closing when negative.
+        const Vec3& x = c.manifold.points[0].position;
+        const std::uint32_t ma = c.body_a, mb = c.body_b;
+        const Vec3 va = st.v[ma] + st.w[ma].cross(x - st.x[ma]);
+        const Vec3 vb = st.v[mb] + st.w[mb].cross(x - st.x[mb]);
+        const Real closing = -(vb - va).dot(c.manifold.normal);
+        try {
+            approach_.push_back({p, float(std::max(Real(0), closing))});
+        } catch (const std::bad_alloc&) {
+            ++dropped_;
+            return;
+        }
     }
 }
 
@@ -188,6 +220,9 @@ void WorldEvents::gather_contacts(std::uint64_t step) {
                     for (int q = 0; q < c.manifold.count; ++q) impulse += c.manifold.points[q].total_normal_impulse;
                 }
                 e.normal_impulse = float(impulse);
+                const auto found = std::lower_bound(approach_.begin(), approach_.end(), p,
+                                                    [](const Approach& x, const Pair& y) { return x.pair < y; });
+                if (found != approach_.end() && found->pair == p) e.approach_speed = found->speed;
                 begin_.push_back(e);
             } else {
                 ++i;

@@ -59,6 +59,9 @@ private:
     };
 
     void before_step();
+    /// After the rigid system's DetectCollisions, before any solve: the approach speed of each pair that
+    /// touches now and did not after the last step (a begin event to come).
+    void before_solve();
     void after_step(std::uint64_t step);
     void gather_sleep(std::uint64_t step);
     void gather_contacts(std::uint64_t step);
@@ -68,7 +71,7 @@ private:
 
     World& world_;
     std::uint32_t tag_ = 0;
-    int hook_before_ = 0, hook_after_ = 0;
+    int hook_before_ = 0, hook_solve_ = 0, hook_after_ = 0;
     int dropped_ = 0;
 
     HostVector<sinew_contact_begin_event> begin_;
@@ -87,6 +90,11 @@ private:
     HostVector<std::uint8_t> awake_before_;         ///< per rigid slot, 2 = not a live dynamic body
     HostVector<std::uint32_t> generation_before_;  ///< per rigid slot
     HostVector<Pair> pairs_, new_pairs_;
+    struct Approach {
+        Pair pair;
+        float speed;
+    };
+    HostVector<Approach> approach_;  ///< this step's new pairs, in pair order (before_solve)
     HostVector<JointMeta> joints_;                  ///< per joint slot
 };
 

@@ -502,6 +502,9 @@ typedef struct sinew_contact_begin_event {
                                begins while a gap is still open, so the first step may only close it and
                                the next stops the box. With SINEW_SOLVER_NEWTON it counts the contact and
                                shock-propagation passes, not the elastic collision passes before them. */
+    float approach_speed;   /* m/s, >= 0: how fast the bodies were closing along the normal at the first
+                               point when the step began (before its solve): a hit's strength, for
+                               impact sounds and damage (Box2D's hit events); 0 if they were not closing */
     uint64_t step;          /* the world's step count after the step it happened in */
 } sinew_contact_begin_event;
 
