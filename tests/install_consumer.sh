@@ -10,6 +10,11 @@ cmake -S "$source_dir/demos/cmake-consumer" -B "$prefix/build" -G Ninja -DCMAKE_
 cmake --build "$prefix/build" >/dev/null
 "$prefix/build/consumer_cpp"
 LD_LIBRARY_PATH="$prefix/usr/lib:$prefix/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}" "$prefix/build/consumer_c"
+# A C-only project asking for sinew::shared alone configures without Eigen and libccd.
+cmake -S "$source_dir/demos/cmake-consumer" -B "$prefix/build-c" -G Ninja -DCMAKE_PREFIX_PATH="$prefix/usr" \
+  -DSINEW_CONSUMER_C_ONLY=ON -DCMAKE_DISABLE_FIND_PACKAGE_Eigen3=ON -DCMAKE_DISABLE_FIND_PACKAGE_ccd=ON >/dev/null
+cmake --build "$prefix/build-c" >/dev/null
+LD_LIBRARY_PATH="$prefix/usr/lib:$prefix/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}" "$prefix/build-c/consumer_c"
 # Headers internal to a layer (CMakeLists.txt SINEW_INTERNAL_HEADERS) are not installed.
 test ! -e "$prefix/usr/include/sinew/rigid/joint_rows.hpp" && test ! -e "$prefix/usr/include/sinew/soft/solver_caches.hpp"
 # pkg-config from the installed prefix (the .pc finds its prefix from its own location), and the tool.

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 #include <sstream>
@@ -453,4 +454,20 @@ TEST_CASE("the solver is one kind, files naming sequential_impulse and a positio
     CHECK(parse_scene_string(R"({"format": "sinew-scene", "version": 1, "settings": {"solver": {"kind": "sequential_impulse"}}})",
                            "inline")
               .settings.rigid.solver == RigidSolverKind::SoftStep);
+}
+
+TEST_CASE("the scene format document's example loads and runs as copied", "[scene]") {
+    std::ifstream in(std::string(SINEW_SOURCE_DIR) + "/docs/scene-format.md");
+    REQUIRE(in);
+    const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t section = doc.find("\n## Example");
+    REQUIRE(section != std::string::npos);
+    const std::size_t begin = doc.find("```json\n", section);
+    REQUIRE(begin != std::string::npos);
+    const std::size_t end = doc.find("```", begin + 8);
+    REQUIRE(end != std::string::npos);
+    const auto world = build_world(parse_scene_string(doc.substr(begin + 8, end - begin - 8), "scene-format.md example"));
+    for (int i = 0; i < 60; ++i) world->step();
+    CHECK(world->rigid().all_finite());
+    CHECK(world->rigid().body_count() == 20);  // 5 bodies and a 5-row pyramid of 15
 }

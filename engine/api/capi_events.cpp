@@ -32,8 +32,8 @@ WorldEvents::WorldEvents(World& world, const HostHooks& hooks)
       awake_before_(HostAllocator<std::uint8_t>(hooks)),
       generation_before_(HostAllocator<std::uint32_t>(hooks)),
       pairs_(HostAllocator<Pair>(hooks)),
-      approach_(HostAllocator<Approach>(hooks)),
       new_pairs_(HostAllocator<Pair>(hooks)),
+      approach_(HostAllocator<Approach>(hooks)),
       joints_(HostAllocator<JointMeta>(hooks)) {
     Pipeline& p = world.pipeline();
     const int rigid = p.find_system(world.rigid().name());

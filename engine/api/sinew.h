@@ -39,7 +39,15 @@
 #include <stdint.h>
 
 #if defined(_WIN32)
+/* Building the library exports; a program using the DLL imports; define SINEW_STATIC when linking the
+ * static library (sinew::sinew does it for you). */
+#if defined(SINEW_BUILDING)
 #define SINEW_API __declspec(dllexport)
+#elif defined(SINEW_STATIC)
+#define SINEW_API
+#else
+#define SINEW_API __declspec(dllimport)
+#endif
 #else
 #define SINEW_API __attribute__((visibility("default")))
 #endif

@@ -4,6 +4,7 @@
 // Bullet's btSoftBody, in the same process; one JSON line per (scene, engine, variant) on stdout, progress
 // on stderr. --markdown rewrites the cloth section of a results file (between <!-- bench-cloth:begin -->
 // and <!-- bench-cloth:end -->); --chart draws stretch against time with gnuplot.
+#include "tools/bench/peers.hpp"
 #include "tools/bench/bench_cloth.hpp"
 
 #include <algorithm>
@@ -473,7 +474,7 @@ int cmd_bench_cloth(const std::vector<std::string>& args) {
             }
             std::cout << to_json_line(runs.back()) << std::endl;
         }
-        if (!wanted("bullet", "pi10")) continue;
+        if (!wanted("bullet", "pi10") || !bullet_peer_available()) continue;
         std::cerr << "bench: " << scene.name << " bullet (" << n << " steps)...\n";
         try {
             runs.push_back(run_bullet_soft(scene, n, clock));

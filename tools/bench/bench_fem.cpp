@@ -7,6 +7,7 @@
 // reference is also checked against Euler-Bernoulli in the table. Blocks: accuracy = the final volume
 // ratio. --markdown rewrites the section between <!-- bench-fem:begin --> and <!-- bench-fem:end -->;
 // --chart draws accuracy error against time and time against tets with gnuplot.
+#include "tools/bench/peers.hpp"
 #include "tools/bench/bench_fem.hpp"
 
 #include <algorithm>
@@ -393,7 +394,7 @@ int cmd_bench_fem(const std::vector<std::string>& args) {
         const int bullet_refinements = base.kind == FemSceneKind::Beam ? 2 : 1;
         for (int r = 1; r <= bullet_refinements; ++r) {
             const std::string variant = "corotated r" + std::to_string(r);
-            if (!wanted("bullet", variant)) continue;
+            if (!wanted("bullet", variant) || !bullet_peer_available()) continue;
             std::cerr << "bench: " << base.name << " bullet " << variant << " (" << n << " steps)...\n";
             try {
                 runs.push_back(run_bullet_fem(r == 1 ? base : fem_scene(scenes[k], scene_dir, r), n, clock));

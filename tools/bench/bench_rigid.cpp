@@ -4,6 +4,7 @@
 // one JSON line per (scene, engine, variant) on stdout and progress on stderr. --markdown rewrites the
 // rigid section of a results file (between <!-- bench-rigid:begin --> and <!-- bench-rigid:end -->);
 // --chart draws time against drift with gnuplot.
+#include "tools/bench/peers.hpp"
 #include "tools/bench/bench_rigid.hpp"
 
 #include <algorithm>
@@ -271,7 +272,7 @@ int cmd_bench(const std::vector<std::string>& args) {
         for (const SinewVariant& v : kVariants)
             if (wanted(v.engine, v.variant) && simd_kernel_available(v.simd))
                 contenders.push_back(std::make_unique<SinewContender>(scene, v, iterations, workers));
-        if (wanted("bullet", "default")) contenders.push_back(make_bullet_contender(scene, iterations));
+        if (wanted("bullet", "default") && bullet_peer_available()) contenders.push_back(make_bullet_contender(scene, iterations));
         std::cerr << "bench: " << name << ": " << contenders.size() << " engine settings, " << n
                   << " steps each, stepped in alternating chunks...\n";
         race(contenders, n, clock, "bench " + name);

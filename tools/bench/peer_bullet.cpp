@@ -6,8 +6,11 @@
 #include <stdexcept>
 
 #include "tools/bench/bench_rigid.hpp"
+#include "tools/bench/peers.hpp"
 
 namespace sinew::bench {
+
+bool bullet_peer_available() { return true; }
 
 namespace {
 
