@@ -423,6 +423,8 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
         r.b = j.def.body_b.index;
         r.ma = st.inv_mass[r.a];
         r.mb = st.inv_mass[r.b];
+        // A joint of a disabled body is out with it (RigidSystem::set_enabled).
+        if (!sys.slot_enabled(r.a) || !sys.slot_enabled(r.b)) continue;
         // Both ends immovable this step (static, kinematic or asleep): nothing to solve; the impulses are
         // kept for when the bodies wake.
         if (r.ma == 0 && r.mb == 0) continue;

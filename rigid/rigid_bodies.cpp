@@ -74,6 +74,8 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         material_.emplace_back();
         filter_.emplace_back();
         sensor_.push_back(0);
+        enabled_.push_back(1);
+        def_mass_.push_back(0);
         mass_.push_back(0);
         body_inv_mass_.push_back(0);
         inv_inertia_local_.emplace_back();
@@ -106,6 +108,8 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     material_[slot] = def.material;
     filter_[slot] = def.filter;
     sensor_[slot] = def.sensor ? 1 : 0;
+    enabled_[slot] = 1;
+    def_mass_[slot] = def.mass;
     if (def.sensor) sensor_slots_.insert(std::lower_bound(sensor_slots_.begin(), sensor_slots_.end(), slot), slot);
     ignored_changed_ = true;  // the pair list is rebuilt with this body's filter
     mass_[slot] = dynamic ? mp.mass : 0;
@@ -175,7 +179,7 @@ void RigidSystem::destroy_body(BodyId id) {
         ignored_pairs_.erase(kept, ignored_pairs_.end());
         ignored_changed_ = true;
     }
-    tree_.destroy(proxy_[s]);
+    if (proxy_[s] != DynamicTree::kNull) tree_.destroy(proxy_[s]);  // a disabled body has none
     proxy_[s] = DynamicTree::kNull;
     if (sensor_[s]) {
         sensor_[s] = 0;
@@ -222,7 +226,8 @@ void RigidSystem::set_transform(BodyId id, const Transform& xf) {
     state_.q[s] = xf.q.normalized();
     state_.x[s] = xf.p + state_.q[s] * local_com_[s];
     w_frame_[s] = state_.q[s];  // the angular velocity is kept, not the angular momentum
-    tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
+    if (proxy_[s] != DynamicTree::kNull)
+        tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
     wake_island(s);
 }
 
@@ -246,7 +251,7 @@ void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& 
     local_com_[s] = Vec3::Zero();
     reshaped_[s] = 1;
     if (!dynamic) {  // a kinematic body's mass plays no part
-        tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
+        if (proxy_[s] != DynamicTree::kNull) tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
         return;
     }
     mass_[s] = mass;
@@ -261,7 +266,7 @@ void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& 
         state_.inv_mass[s] = body_inv_mass_[s];
         state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
     }
-    tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
+    if (proxy_[s] != DynamicTree::kNull) tree_.move(proxy_[s], box, Vec3::Zero(), settings_.contact_margin);
 }
 
 void RigidSystem::place(BodyId id, const Transform& xf, const Vec3& v, const Vec3& w) {
@@ -275,7 +280,8 @@ void RigidSystem::place(BodyId id, const Transform& xf, const Vec3& v, const Vec
     w_frame_[s] = state_.q[s];
     if (state_.inv_mass[s] != 0) state_.inv_inertia_world[s] = state_.q[s].toRotationMatrix() * inv_inertia_local_[s] *
                                                                 state_.q[s].toRotationMatrix().transpose();
-    tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
+    if (proxy_[s] != DynamicTree::kNull)
+        tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), Vec3::Zero(), settings_.contact_margin);
 }
 
 Vec3 RigidSystem::linear_velocity(BodyId id) const {
@@ -290,6 +296,7 @@ Vec3 RigidSystem::angular_velocity(BodyId id) const {
 
 void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
     check(id, "set_velocity");
+    if (!enabled_[id.index]) throw RigidError("set_velocity: body {index " + std::to_string(id.index) + "} is disabled (set_enabled)");
     const std::string speed_problem = velocity_problem(v, w);
     if (!speed_problem.empty()) throw RigidError("set_velocity: " + speed_problem);
     if (type_[id.index] == BodyType::Static) {
@@ -308,6 +315,7 @@ void RigidSystem::set_velocity(BodyId id, const Vec3& v, const Vec3& w) {
 
 void RigidSystem::set_target_transform(BodyId id, const Transform& target, Real h) {
     check(id, "set_target_transform");
+    if (!enabled_[id.index]) throw RigidError("set_target_transform: body {index " + std::to_string(id.index) + "} is disabled (set_enabled)");
     const std::uint32_t s = id.index;
     if (type_[s] == BodyType::Static)
         throw RigidError("set_target_transform: body " + std::to_string(s) + " is static (make it kinematic to move it)");
@@ -328,6 +336,7 @@ void RigidSystem::set_target_transform(BodyId id, const Transform& target, Real 
 
 void RigidSystem::apply_force(BodyId id, const Vec3& f, const Vec3& p) {
     check(id, "apply_force");
+    if (!enabled_[id.index]) throw RigidError("apply_force: body {index " + std::to_string(id.index) + "} is disabled (set_enabled)");
     if (!is_finite(f) || !is_finite(p)) throw RigidError("apply_force: force and point must be finite");
     std::uint32_t s = id.index;
     if (type_[s] != BodyType::Dynamic) return;
@@ -338,6 +347,7 @@ void RigidSystem::apply_force(BodyId id, const Vec3& f, const Vec3& p) {
 
 void RigidSystem::apply_impulse(BodyId id, const Vec3& j, const Vec3& p) {
     check(id, "apply_impulse");
+    if (!enabled_[id.index]) throw RigidError("apply_impulse: body {index " + std::to_string(id.index) + "} is disabled (set_enabled)");
     if (!is_finite(j) || !is_finite(p)) throw RigidError("apply_impulse: impulse and point must be finite");
     std::uint32_t s = id.index;
     if (type_[s] != BodyType::Dynamic) return;

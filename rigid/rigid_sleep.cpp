@@ -20,7 +20,7 @@ std::uint32_t RigidSystem::find_root(std::uint32_t s) {
 }
 
 void RigidSystem::wake_island(std::uint32_t s) {
-    if (type_[s] != BodyType::Dynamic) return;
+    if (type_[s] != BodyType::Dynamic || !enabled_[s]) return;  // a disabled body stays out until enabled
     if (awake_[s]) {  // an awake body's island is awake (update_sleep keeps islands uniform)
         sleep_timer_[s] = 0;
         return;
@@ -28,7 +28,7 @@ void RigidSystem::wake_island(std::uint32_t s) {
     // Islands are from the last update_sleep(); waking is rare, so a linear scan is fine.
     std::uint32_t root = find_root(s);
     for (std::uint32_t i = 0; i < slots_.size(); ++i)
-        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && !awake_[i] && find_root(i) == root) {
+        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && !awake_[i] && enabled_[i] && find_root(i) == root) {
             awake_[i] = true;
             sleep_timer_[i] = 0;
             // Woken mid-step: it takes part in this step's solve with its real mass.
@@ -66,7 +66,7 @@ void RigidSystem::update_sleep(Real h) {
         if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
     }
     joints_->for_each_connection([&](std::uint32_t a, std::uint32_t b) {
-        if (type_[a] != BodyType::Dynamic || type_[b] != BodyType::Dynamic) return;
+        if (type_[a] != BodyType::Dynamic || type_[b] != BodyType::Dynamic || !enabled_[a] || !enabled_[b]) return;
         std::uint32_t ra = find_root(a), rb = find_root(b);
         if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
     });
@@ -76,7 +76,7 @@ void RigidSystem::update_sleep(Real h) {
     island_min_timer_.assign(n, kRealMax);
     island_awake_.assign(n, 0);
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic || !enabled_[s]) continue;
         if (awake_[s]) {
             if (!allow_sleep_[s] || state_.v[s].squaredNorm() > lin2 || state_.w[s].squaredNorm() > ang2)
                 sleep_timer_[s] = 0;
@@ -88,7 +88,7 @@ void RigidSystem::update_sleep(Real h) {
         island_awake_[r] |= awake_[s] ? 1 : 0;
     }
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic) continue;
+        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic || !enabled_[s]) continue;
         std::uint32_t r = find_root(s);
         if (island_awake_[r] && island_min_timer_[r] >= settings_.sleep_time) {
             awake_[s] = false;  // the whole island falls asleep together

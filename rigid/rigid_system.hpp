@@ -13,6 +13,7 @@
 
 #include "engine/core/dynamic_tree.hpp"
 #include "engine/core/manifold.hpp"
+#include "engine/core/mass_properties.hpp"
 #include "engine/core/narrowphase.hpp"
 #include "engine/core/pipeline.hpp"
 #include "engine/core/ray_cast.hpp"
@@ -169,6 +170,18 @@ public:
     /// it now admits are found (the body is woken, so a resting pair meets again).
     void set_filter(BodyId id, const CollisionFilter& filter);
     const CollisionFilter& slot_filter(std::uint32_t slot) const { return filter_[slot]; }
+    /// Changes the body's type (Box2D's b2Body_SetType), keeping its origin's pose: a dynamic body gets
+    /// the mass properties it was created with (its mass, or its material's density); a static one
+    /// stops. The bodies it touched are woken, its pairs found afresh at the next step. Throws
+    /// RigidError (nothing changed) for a shape only a static body may have.
+    void set_type(BodyId id, BodyType type);
+    /// Takes the body out of the simulation (false) or puts it back (true), as Box2D's b2Body_Disable:
+    /// a disabled body keeps its pose, has no contacts, is found by no query, sensor or soft collision,
+    /// is not moved by gravity or its joints (which are not solved meanwhile) and stays asleep whatever
+    /// touches it; its velocity is zeroed. Enabled again it is awake. The bodies it touched are woken.
+    void set_enabled(BodyId id, bool enabled);
+    bool enabled(BodyId id) const;
+    bool slot_enabled(std::uint32_t slot) const { return enabled_[slot] != 0; }
     /// A sensor (BodyDef::sensor): it is in the broad phase for the sensor queries only.
     bool is_sensor(BodyId id) const;
     bool slot_sensor(std::uint32_t slot) const { return sensor_[slot] != 0; }
@@ -339,6 +352,10 @@ private:
     void follow_rotation(std::uint32_t s);
     void update_sleep(Real h);
     void wake_island(std::uint32_t slot);
+    /// Wakes the islands of the bodies slot s touches (its manifolds), as when it goes away.
+    void wake_touching(std::uint32_t s);
+    /// Mass properties for a dynamic body of slot s's shape and creation mass or density (throws RigidError).
+    MassProperties dynamic_mass_properties(std::uint32_t s, const char* where) const;
     std::uint32_t find_root(std::uint32_t slot);
     Transform origin_transform(std::uint32_t slot) const;
 
@@ -354,6 +371,8 @@ private:
     std::vector<Material> material_;
     std::vector<CollisionFilter> filter_;
     std::vector<std::uint8_t> sensor_;          ///< 1 for a sensor (BodyDef::sensor)
+    std::vector<std::uint8_t> enabled_;         ///< 0 while set_enabled(false): no proxy, asleep
+    std::vector<Real> def_mass_;                ///< BodyDef::mass as created (0: from density), for set_type
     std::vector<std::uint32_t> sensor_slots_;   ///< the live sensors, ascending
     std::vector<Real> mass_;
     std::vector<Real> body_inv_mass_;     ///< the body's own inverse mass (0 if not dynamic)

@@ -381,3 +381,43 @@ TEST_CASE("C API body control: put to sleep in mid-air, mass data, world counter
     CHECK(sinew_body_sleep(box) == SINEW_ERROR_STALE_ID);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }
+
+TEST_CASE("C API body type and enabled state at run time", "[capi][events]") {
+    sinew_world_id w = make_world();
+    add_ground(w);
+    const sinew_body_id box = add_box(w, {0, 3, 0});
+    sinew_body_type type;
+    REQUIRE(sinew_body_set_type(box, SINEW_BODY_STATIC) == SINEW_OK);
+    REQUIRE(sinew_body_get_type(box, &type) == SINEW_OK);
+    CHECK(type == SINEW_BODY_STATIC);
+    for (int i = 0; i < 30; ++i) step_events(w);
+    sinew_transform t;
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    CHECK(t.p.y == 3.0f);  // static: it stays up
+    REQUIRE(sinew_body_set_type(box, SINEW_BODY_DYNAMIC) == SINEW_OK);
+    float mass = 0;
+    REQUIRE(sinew_body_get_mass(box, &mass) == SINEW_OK);
+    CHECK(mass == 1.0f);  // the mass it was created with
+    REQUIRE(sinew_body_set_enabled(box, 0) == SINEW_OK);
+    int enabled = 1;
+    REQUIRE(sinew_body_is_enabled(box, &enabled) == SINEW_OK);
+    CHECK(enabled == 0);
+    CHECK(sinew_body_set_velocity(box, {1, 0, 0}, {0, 0, 0}) == SINEW_ERROR_INVALID_ARGUMENT);
+    for (int i = 0; i < 30; ++i) step_events(w);
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    CHECK(t.p.y == 3.0f);  // out of the simulation
+    REQUIRE(sinew_body_set_enabled(box, 1) == SINEW_OK);
+    for (int i = 0; i < 90; ++i) step_events(w);
+    REQUIRE(sinew_body_get_transform(box, &t) == SINEW_OK);
+    CHECK(t.p.y == Approx(0.5).margin(0.01));  // fell onto the ground
+    // Misuse.
+    sinew_body_type bad_type;
+    poke(bad_type, 7);
+    CHECK(sinew_body_set_type(box, bad_type) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_body_set_enabled(box, 2) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_body_get_type(box, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    CHECK(sinew_body_is_enabled(box, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    REQUIRE(sinew_body_destroy(box) == SINEW_OK);
+    CHECK(sinew_body_set_type(box, SINEW_BODY_STATIC) == SINEW_ERROR_STALE_ID);
+    REQUIRE(sinew_world_destroy(w) == SINEW_OK);
+}

@@ -632,3 +632,103 @@ TEST_CASE("an embedded soft ball is seen by a sensor as itself, not through its 
     CHECK(begins == 1);
     CHECK(ends == 1);
 }
+
+// ---- body type and enabled state changed at run time (rigid/rigid_body_control.cpp) ------------------------
+
+namespace {
+BodyId add_box_body(World& w, BodyType type, const Vec3& at, const Vec3& half, Real mass = 0) {
+    BodyDef d;
+    d.type = type;
+    d.shape = make_box(half);
+    d.pose.p = at;
+    d.mass = type == BodyType::Dynamic ? mass : 0;
+    return w.rigid().create_body(d);
+}
+}  // namespace
+
+TEST_CASE("set_type: a static shelf turned dynamic falls and lands, a falling box turned static stops", "[world][body-control]") {
+    World w;
+    RigidSystem& r = w.rigid();
+    add_box_body(w, BodyType::Static, Vec3(0, -0.5, 0), Vec3(10, 0.5, 10));
+    const BodyId shelf = add_box_body(w, BodyType::Static, Vec3(0, 3, 0), Vec3(0.5, 0.25, 0.5));
+    const BodyId crate = add_box_body(w, BodyType::Dynamic, Vec3(0, 4, 0), Vec3(0.25, 0.25, 0.25), 5);
+    for (int i = 0; i < 120; ++i) w.step();
+    CHECK(r.transform(crate).p.y() == Approx(3.5).margin(0.01));  // resting on the static shelf
+    // The shelf becomes dynamic (density 1000: 500 kg): both fall and come to rest on the ground.
+    r.set_type(shelf, BodyType::Dynamic);
+    CHECK(r.type(shelf) == BodyType::Dynamic);
+    CHECK(r.mass(shelf) == Approx(500).epsilon(1e-5));
+    for (int i = 0; i < 240; ++i) w.step();
+    CHECK(r.transform(shelf).p.y() == Approx(0.25).margin(0.01));
+    CHECK(r.transform(crate).p.y() == Approx(0.75).margin(0.01));
+    // The crate made kinematic keeps its pose; made dynamic again it has its 5 kg back.
+    r.set_type(crate, BodyType::Kinematic);
+    CHECK(r.mass(crate) == 0);
+    r.set_type(crate, BodyType::Dynamic);
+    CHECK(r.mass(crate) == Approx(5));
+    // A box falling at speed, turned static, stops where it is.
+    const BodyId faller = add_box_body(w, BodyType::Dynamic, Vec3(5, 10, 0), Vec3(0.25, 0.25, 0.25), 1);
+    for (int i = 0; i < 30; ++i) w.step();
+    const Vec3 at = r.transform(faller).p;
+    r.set_type(faller, BodyType::Static);
+    CHECK(r.linear_velocity(faller).norm() == 0);
+    for (int i = 0; i < 30; ++i) w.step();
+    CHECK((r.transform(faller).p - at).norm() == 0);
+    // A plane cannot move.
+    BodyDef pd;
+    pd.type = BodyType::Static;
+    pd.shape = make_plane(Vec3::UnitY(), -5);
+    const BodyId plane = r.create_body(pd);
+    CHECK_THROWS_WITH(r.set_type(plane, BodyType::Dynamic), Catch::Contains("static body"));
+    CHECK(r.type(plane) == BodyType::Static);
+}
+
+TEST_CASE("set_enabled: a disabled platform lets the box through and is found by nothing, enabled it is back", "[world][body-control]") {
+    World w;
+    RigidSystem& r = w.rigid();
+    add_box_body(w, BodyType::Static, Vec3(0, -0.5, 0), Vec3(10, 0.5, 10));
+    const BodyId platform = add_box_body(w, BodyType::Static, Vec3(0, 2, 0), Vec3(1, 0.1, 1));
+    const BodyId box = add_box_body(w, BodyType::Dynamic, Vec3(0, 2.4, 0), Vec3(0.25, 0.25, 0.25), 1);
+    for (int i = 0; i < 60; ++i) w.step();
+    CHECK(r.transform(box).p.y() == Approx(2.35).margin(0.01));
+    const BodyId floating = add_box_body(w, BodyType::Dynamic, Vec3(5, 5, 0), Vec3(0.25, 0.25, 0.25), 1);
+    r.set_enabled(platform, false);
+    r.set_enabled(floating, false);
+    CHECK_FALSE(r.enabled(platform));
+    RigidSystem::RayResult hit;
+    REQUIRE(r.ray_cast(Vec3(0, 1.5, 0.9), Vec3(0, 1.5, 0.9) + Vec3(0, 1, 0), hit) == false);  // the platform is gone
+    CHECK_THROWS_WITH(r.set_velocity(floating, Vec3(1, 0, 0), Vec3::Zero()), Catch::Contains("disabled"));
+    for (int i = 0; i < 90; ++i) w.step();
+    CHECK(r.transform(box).p.y() == Approx(0.25).margin(0.01));  // fell through to the ground
+    CHECK(r.transform(floating).p.y() == 5);                     // a disabled dynamic body does not fall
+    CHECK_FALSE(r.awake(floating));
+    r.set_enabled(floating, true);
+    CHECK(r.awake(floating));
+    for (int i = 0; i < 90; ++i) w.step();
+    CHECK(r.transform(floating).p.y() == Approx(0.25).margin(0.01));
+    r.set_enabled(platform, true);
+    REQUIRE(r.ray_cast(Vec3(0, 1.5, 0.9), Vec3(0, 2.5, 0.9), hit));
+    CHECK(hit.body == platform);
+}
+
+TEST_CASE("set_enabled: a pendulum's joint is out while its anchor is disabled", "[world][body-control]") {
+    WorldSettings ws;
+    ws.rigid.sleeping = false;
+    World w(ws);
+    RigidSystem& r = w.rigid();
+    const BodyId anchor = add_box_body(w, BodyType::Static, Vec3(0, 5, 0), Vec3(0.1, 0.1, 0.1));
+    const BodyId bob = add_box_body(w, BodyType::Dynamic, Vec3(0, 4, 0), Vec3(0.1, 0.1, 0.1), 1);
+    JointDef j;
+    j.type = JointType::Ball;
+    j.body_a = anchor;
+    j.body_b = bob;
+    j.local_anchor_a = Vec3::Zero();
+    j.local_anchor_b = Vec3(0, 1, 0);
+    r.create_joint(j);
+    for (int i = 0; i < 30; ++i) w.step();
+    CHECK(r.transform(bob).p.y() == Approx(4).margin(0.01));  // hangs
+    r.set_enabled(anchor, false);
+    for (int i = 0; i < 30; ++i) w.step();
+    // Free fall for 0.5 s: 1.23 m (within a step's worth).
+    CHECK(r.transform(bob).p.y() == Approx(4 - 0.5 * 9.81 * 0.25).margin(0.1));
+}

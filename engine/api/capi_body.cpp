@@ -213,6 +213,55 @@ sinew_status sinew_body_wake(sinew_body_id body) {
     });
 }
 
+sinew_status sinew_body_get_type(sinew_body_id body, sinew_body_type* out) {
+    const char* fn = "sinew_body_get_type";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        const BodyType type = t.world->rigid().type(t.body);
+        *out = type == BodyType::Static ? SINEW_BODY_STATIC : type == BodyType::Kinematic ? SINEW_BODY_KINEMATIC : SINEW_BODY_DYNAMIC;
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_type(sinew_body_id body, sinew_body_type type) {
+    const char* fn = "sinew_body_set_type";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        const int v = enum_value(type);
+        if (v < SINEW_BODY_STATIC || v > SINEW_BODY_DYNAMIC)
+            return invalid(fn, "type = " + std::to_string(v) + " is not a sinew_body_type");
+        t.world->rigid().set_type(t.body, v == SINEW_BODY_STATIC ? BodyType::Static
+                                          : v == SINEW_BODY_KINEMATIC ? BodyType::Kinematic
+                                                                      : BodyType::Dynamic);  // RigidError: plane, mesh
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_set_enabled(sinew_body_id body, int enabled) {
+    const char* fn = "sinew_body_set_enabled";
+    return guarded(fn, [&] {
+        Target t = target(body, fn, true);
+        if (t.status) return t.status;
+        if (enabled != 0 && enabled != 1) return invalid(fn, "enabled = " + std::to_string(enabled) + " must be 0 or 1");
+        t.world->rigid().set_enabled(t.body, enabled == 1);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_body_is_enabled(sinew_body_id body, int* out) {
+    const char* fn = "sinew_body_is_enabled";
+    return guarded(fn, [&] {
+        if (!out) return fail(SINEW_ERROR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+        Target t = target(body, fn, false);
+        if (t.status) return t.status;
+        *out = t.world->rigid().enabled(t.body) ? 1 : 0;
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_body_sleep(sinew_body_id body) {
     const char* fn = "sinew_body_sleep";
     return guarded(fn, [&] {

@@ -247,6 +247,16 @@ SINEW_API sinew_status sinew_body_apply_impulse(sinew_body_id body, sinew_vec3 i
 SINEW_API sinew_status sinew_body_user_data(sinew_body_id body, uint64_t* out);
 /** Wakes the body's island (a sleeping body is not simulated until something wakes it). */
 SINEW_API sinew_status sinew_body_wake(sinew_body_id body);
+SINEW_API sinew_status sinew_body_get_type(sinew_body_id body, sinew_body_type* out);
+/** Changes the body's type, keeping its pose: made dynamic it gets the mass it was created with (or its
+ *  density's), made static it stops; the bodies it touched are woken. A plane or mesh stays static
+ *  (SINEW_ERROR_INVALID_ARGUMENT). */
+SINEW_API sinew_status sinew_body_set_type(sinew_body_id body, sinew_body_type type);
+/** 0 takes the body out of the simulation (no contacts, not found by queries and sensors, not moved, its
+ *  joints not solved, its velocity zeroed; setting a velocity, a target or a force on it is refused), 1
+ *  puts it back awake. The bodies it touched are woken. */
+SINEW_API sinew_status sinew_body_set_enabled(sinew_body_id body, int enabled);
+SINEW_API sinew_status sinew_body_is_enabled(sinew_body_id body, int* out);
 /** Puts the dynamic body's island (the bodies it touched or was jointed to in the last step) to sleep now,
  *  velocities zeroed, even with automatic sleeping off; it stays asleep until something wakes it (an
  *  awake body touching it, sinew_body_wake, a change made to it). SINEW_ERROR_INVALID_ARGUMENT for a

@@ -74,7 +74,8 @@ void SensorTracker::update(const RigidSystem& rigid, const SoftSystem& soft, con
                            std::uint64_t step) {
     events_.clear();
     next_.clear();
-    for (std::uint32_t s : rigid.sensor_slots()) find(rigid, soft, coupling, s);
+    for (std::uint32_t s : rigid.sensor_slots())
+        if (rigid.slot_enabled(s)) find(rigid, soft, coupling, s);  // a disabled sensor sees nothing
     // Merge join: keys only in the old list ended, keys only in the new one began.
     std::size_t i = 0, j = 0;
     while (i < current_.size() || j < next_.size()) {

@@ -357,10 +357,21 @@ std::string check_capi_input(const std::uint8_t* data, std::size_t size) {
             case 22: {
                 sinew_events ev;
                 s.watch(sinew_world_get_events(s.world, &ev), "sinew_world_get_events");
-                for (const sinew_body_id& b : s.bodies) {
+                for (std::size_t k = 0; k < s.bodies.size(); ++k) {
+                    const sinew_body_id& b = s.bodies[k];
                     sinew_sensor_event o[4];
                     int count = 0;
                     s.watch(sinew_sensor_get_overlaps(b, o, 4, &count), "sinew_sensor_get_overlaps");
+                    // Type and enabled changes, chosen from the state rather than the input (the corpus
+                    // decodes as before): every seventh body toggled, every eleventh given another type.
+                    const std::size_t turn = k + std::size_t(steps);
+                    if (turn % 7 == 0) {
+                        int on = 1;
+                        s.watch(sinew_body_is_enabled(b, &on), "sinew_body_is_enabled");
+                        s.watch(sinew_body_set_enabled(b, on ? 0 : 1), "sinew_body_set_enabled");
+                    }
+                    if (turn % 11 == 0)
+                        s.watch(sinew_body_set_type(b, sinew_body_type(turn % 3)), "sinew_body_set_type");
                 }
                 break;
             }
