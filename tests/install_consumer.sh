@@ -15,6 +15,11 @@ cmake -S "$source_dir/demos/cmake-consumer" -B "$prefix/build-c" -G Ninja -DCMAK
   -DSINEW_CONSUMER_C_ONLY=ON -DCMAKE_DISABLE_FIND_PACKAGE_Eigen3=ON -DCMAKE_DISABLE_FIND_PACKAGE_ccd=ON >/dev/null
 cmake --build "$prefix/build-c" >/dev/null
 LD_LIBRARY_PATH="$prefix/usr/lib:$prefix/usr/lib/x86_64-linux-gnu:${LD_LIBRARY_PATH:-}" "$prefix/build-c/consumer_c"
+# A C-only project may link the static library (sinew.h, the C++ runtime and libm come with it).
+cmake -S "$source_dir/demos/cmake-consumer" -B "$prefix/build-cs" -G Ninja -DCMAKE_PREFIX_PATH="$prefix/usr" \
+  -DSINEW_CONSUMER_C_STATIC=ON >/dev/null
+cmake --build "$prefix/build-cs" >/dev/null
+"$prefix/build-cs/consumer_c"
 # Headers internal to a layer (CMakeLists.txt SINEW_INTERNAL_HEADERS) are not installed.
 test ! -e "$prefix/usr/include/sinew/rigid/joint_rows.hpp" && test ! -e "$prefix/usr/include/sinew/soft/solver_caches.hpp"
 # pkg-config from the installed prefix (the .pc finds its prefix from its own location), and the tool.
