@@ -492,17 +492,23 @@ SensorScene sensor_scene(const CollisionFilter& ball_filter = {}) {
     return s;
 }
 
+/// Steps the world n times and returns every sensor event, in order.
+std::vector<SensorEvent> step_collecting_sensor_events(World& w, int n) {
+    std::vector<SensorEvent> events;
+    for (int i = 0; i < n; ++i) {
+        w.step();
+        events.insert(events.end(), w.sensor_events().begin(), w.sensor_events().end());
+    }
+    return events;
+}
+
 }  // namespace
 
 TEST_CASE("a ball falling through a sensor begins and ends one overlap at the analytic times", "[world][sensor]") {
     SensorScene s = sensor_scene();
     World& w = *s.world;
     const double h = double(w.settings().time_step), g = 9.81;
-    std::vector<SensorEvent> events;
-    for (int i = 0; i < 90; ++i) {
-        w.step();
-        events.insert(events.end(), w.sensor_events().begin(), w.sensor_events().end());
-    }
+    const std::vector<SensorEvent> events = step_collecting_sensor_events(w, 90);
     REQUIRE(events.size() == 2);
     CHECK(events[0].begin);
     CHECK_FALSE(events[1].begin);
@@ -593,11 +599,7 @@ TEST_CASE("a cloth falling through a sensor begins and ends one soft overlap", "
     d.edge_u = Vec3(0.6, 0, 0);
     d.edge_v = Vec3(0, 0, 0.6);
     const SoftBodyId cloth = w.soft().create_body(make_cloth_grid(d));
-    std::vector<SensorEvent> events;
-    for (int i = 0; i < 90; ++i) {
-        w.step();
-        events.insert(events.end(), w.sensor_events().begin(), w.sensor_events().end());
-    }
+    const std::vector<SensorEvent> events = step_collecting_sensor_events(w, 90);
     REQUIRE(events.size() == 2);
     CHECK(events[0].begin);
     CHECK(events[0].overlap.soft);

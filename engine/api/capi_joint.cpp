@@ -99,6 +99,20 @@ Target target(sinew_joint_id id, const char* fn, bool mutates) {
     return t;
 }
 
+/// A motor or limit change applies to hinges and sliders, with a 0 or 1 flag.
+sinew_status check_axis_change(const JointDef& d, const char* fn, const char* what, int enable) {
+    if (d.type != JointType::Hinge && d.type != JointType::Slider)
+        return invalid(fn, std::string("joint is a ") + joint_type_name(d.type) + " joint; only hinge and slider joints have " + what);
+    if (enable != 0 && enable != 1) return invalid(fn, "enable = " + std::to_string(enable) + " must be 0 or 1");
+    return SINEW_OK;
+}
+
+/// A changed joint wakes both its bodies (either may be gone if the joint went with it).
+void wake_ends(RigidSystem& r, BodyId a, BodyId b) {
+    if (r.valid(a)) r.wake(a);
+    if (r.valid(b)) r.wake(b);
+}
+
 }  // namespace
 
 extern "C" {
@@ -205,16 +219,12 @@ sinew_status sinew_joint_set_motor(sinew_joint_id joint, int enable, float speed
         if (t.status) return t.status;
         RigidSystem& r = t.entry->world->rigid();
         const JointDef& d = r.joints().def(t.joint);
-        if (d.type != JointType::Hinge && d.type != JointType::Slider)
-            return invalid(fn, std::string("joint is a ") + joint_type_name(d.type) +
-                                   " joint; only hinge and slider joints have a motor");
-        if (enable != 0 && enable != 1) return invalid(fn, "enable = " + std::to_string(enable) + " must be 0 or 1");
+        if (sinew_status s = check_axis_change(d, fn, "a motor", enable)) return s;
         if (!std::isfinite(speed)) return invalid(fn, "speed = " + to_text(speed) + " must be finite");
         if (!nonneg(max_force)) return invalid(fn, "max_force = " + to_text(max_force) + " must be finite and >= 0");
         const BodyId a = d.body_a, b = d.body_b;
         r.joints().set_motor(t.joint, enable == 1, Real(speed), Real(max_force));
-        if (r.valid(a)) r.wake(a);
-        if (r.valid(b)) r.wake(b);
+        wake_ends(r, a, b);
         return SINEW_OK;
     });
 }
@@ -226,14 +236,10 @@ sinew_status sinew_joint_set_limits(sinew_joint_id joint, int enable, float lowe
         if (t.status) return t.status;
         RigidSystem& r = t.entry->world->rigid();
         const JointDef& d = r.joints().def(t.joint);
-        if (d.type != JointType::Hinge && d.type != JointType::Slider)
-            return invalid(fn, std::string("joint is a ") + joint_type_name(d.type) +
-                                   " joint; only hinge and slider joints have limits");
-        if (enable != 0 && enable != 1) return invalid(fn, "enable = " + std::to_string(enable) + " must be 0 or 1");
+        if (sinew_status s = check_axis_change(d, fn, "limits", enable)) return s;
         const BodyId a = d.body_a, b = d.body_b;
         r.joints().set_limits(t.joint, enable == 1, Real(lower), Real(upper));  // RigidError names a bad range
-        if (r.valid(a)) r.wake(a);
-        if (r.valid(b)) r.wake(b);
+        wake_ends(r, a, b);
         return SINEW_OK;
     });
 }
