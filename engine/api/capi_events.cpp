@@ -118,13 +118,16 @@ void WorldEvents::before_solve() {
     const RigidSystem& r = world_.rigid();
     const RigidSystem::State& st = r.state();
     const std::vector<ContactManifold>& contacts = r.contacts();
+    // Both lists are sorted by body pair: a merge join, linear in the contacts (no search per manifold).
+    std::size_t old = 0;
     for (const ContactManifold& c : contacts) {
         if (c.manifold.count == 0) continue;
         std::uint32_t a = c.body_a, b = c.body_b;
         if (a > b) std::swap(a, b);
         const Pair p{a, r.id_of_slot(a).generation, b, r.id_of_slot(b).generation, 0};
         if (!approach_.empty() && approach_.back().pair == p) continue;  // the pair's first manifold decides
-        if (std::binary_search(pairs_.begin(), pairs_.end(), p)) continue;  // touching already
+        while (old < pairs_.size() && pairs_[old] < p) ++old;
+        if (old < pairs_.size() && pairs_[old] == p) continue;  // touching already
         // Relative velocity of B's point against A's along the normal from A to B (in the manifold's
         // own order): closing when negative.
         const Vec3& x = c.manifold.points[0].position;
