@@ -10,3 +10,7 @@ sinew_status sinew_test_set_solver_int(sinew_world_id world, int solver, int vel
 sinew_status sinew_test_set_coupling_int(sinew_world_id world, int strategy, float gain) {
     return sinew_world_set_coupling(world, (sinew_coupling)strategy, gain);
 }
+
+sinew_status sinew_test_set_body_type_int(sinew_body_id body, int type) {
+    return sinew_body_set_type(body, (sinew_body_type)type);
+}
