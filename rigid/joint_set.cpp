@@ -102,6 +102,16 @@ void check_motor(const JointDef& d, Real speed, Real max_force) {
         bad(d, "max_motor_force must be finite and >= 0, got " + to_text(max_force));
 }
 
+/// The limit's checks (at creation and when set_limits changes it).
+void check_limits(const JointDef& d) {
+    if (!is_finite(d.lower) || !is_finite(d.upper))
+        bad(d, "limits must be finite, got lower " + to_text(d.lower) + ", upper " + to_text(d.upper));
+    if (d.lower > d.upper) bad(d, "lower limit " + to_text(d.lower) + " is greater than upper limit " + to_text(d.upper));
+    // The hinge angle is measured in (-pi, pi]; a limit outside that range could never be reached.
+    if (d.type == JointType::Hinge && d.enable_limit && (d.lower < -kPi || d.upper > kPi))
+        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + to_text(d.lower) + ", " + to_text(d.upper) + "]");
+}
+
 /// Every check that does not need the bodies' poses.
 void validate(const JointDef& d, const RigidSystem& sys) {
     switch (d.type) {
@@ -127,12 +137,7 @@ void validate(const JointDef& d, const RigidSystem& sys) {
     const bool has_axis = d.type == JointType::Hinge || d.type == JointType::Slider;
     if (has_axis && !(d.local_axis_a.norm() > Real(1e-6)))
         bad(d, "local_axis_a must be non-zero, got " + to_text(d.local_axis_a));
-    if (!is_finite(d.lower) || !is_finite(d.upper))
-        bad(d, "limits must be finite, got lower " + to_text(d.lower) + ", upper " + to_text(d.upper));
-    if (d.lower > d.upper) bad(d, "lower limit " + to_text(d.lower) + " is greater than upper limit " + to_text(d.upper));
-    // The hinge angle is measured in (-pi, pi]; a limit outside that range could never be reached.
-    if (d.type == JointType::Hinge && d.enable_limit && (d.lower < -kPi || d.upper > kPi))
-        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + to_text(d.lower) + ", " + to_text(d.upper) + "]");
+    check_limits(d);
     check_motor(d, d.motor_speed, d.max_motor_force);
     if (!is_finite(d.length)) bad(d, "length must be finite, got " + to_text(d.length));
     if (!is_finite(d.frequency) || d.frequency < 0) bad(d, "frequency must be finite and >= 0 Hz, got " + to_text(d.frequency));
@@ -353,11 +358,7 @@ void JointSet::set_limits(JointId id, bool enable, Real lower, Real upper) {
     d.enable_limit = enable;
     d.lower = lower;
     d.upper = upper;
-    if (!is_finite(lower) || !is_finite(upper))
-        bad(d, "limits must be finite, got lower " + to_text(lower) + ", upper " + to_text(upper));
-    if (lower > upper) bad(d, "lower limit " + to_text(lower) + " is greater than upper limit " + to_text(upper));
-    if (d.type == JointType::Hinge && enable && (lower < -kPi || upper > kPi))
-        bad(d, "hinge limits must lie within [-pi, pi] rad, got [" + to_text(lower) + ", " + to_text(upper) + "]");
+    check_limits(d);
     if (!enable) j.impulses.lower = j.impulses.upper = 0;
     j.def.enable_limit = enable;
     j.def.lower = lower;

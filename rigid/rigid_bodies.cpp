@@ -40,7 +40,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         def.angular_damping < 0)
         bad("damping must be finite and >= 0");
     if (!is_finite(def.gravity_scale)) bad("gravity_scale must be finite");
-    if (def.sensor && (def.shape.type == ShapeType::Plane || def.shape.type == ShapeType::TriangleMesh))
+    if (def.sensor && !def.shape.can_be_dynamic())
         bad(std::string("a sensor's shape must be a sphere, box, capsule, hull or compound, got a ") +
             shape_type_name(def.shape.type));
     if (def.type != BodyType::Static && !def.shape.can_be_dynamic())
@@ -166,12 +166,7 @@ bool RigidSystem::valid(BodyId id) const { return slots_.valid(id.index, id.gene
 void RigidSystem::destroy_body(BodyId id) {
     check(id, "destroy_body");
     std::uint32_t s = id.index;
-    // Bodies that rested on this one must not be left floating asleep.
-    for (const ContactManifold& c : contacts_)
-        if (c.body_a == s || c.body_b == s) {
-            wake_island(c.body_a);
-            wake_island(c.body_b);
-        }
+    wake_touching(s);  // bodies that rested on this one must not be left floating asleep
     joints_->destroy_attached(s);
     const auto names_s = [s](std::uint64_t key) { return std::uint32_t(key >> 32) == s || std::uint32_t(key) == s; };
     const auto kept = std::remove_if(ignored_pairs_.begin(), ignored_pairs_.end(), names_s);
@@ -189,10 +184,7 @@ void RigidSystem::destroy_body(BodyId id) {
     state_.inv_mass[s] = 0;
     state_.v[s].setZero();
     state_.w[s].setZero();
-    auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
-    restore_disabled();  // its indices are into contacts_ as it is now
-    contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
-    prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+    drop_contacts_of(s);
     slots_.release(s);
 }
 

@@ -16,6 +16,13 @@ void RigidSystem::wake_touching(std::uint32_t s) {
         }
 }
 
+void RigidSystem::drop_contacts_of(std::uint32_t s) {
+    restore_disabled();  // its indices are into contacts_ as it is now
+    auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
+    contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
+    prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+}
+
 MassProperties RigidSystem::dynamic_mass_properties(std::uint32_t s, const char* where) const {
     MassProperties mp;
     try {
@@ -81,11 +88,7 @@ void RigidSystem::set_enabled(BodyId id, bool enable) {
         wake_touching(s);
         tree_.destroy(proxy_[s]);
         proxy_[s] = DynamicTree::kNull;
-        // Its manifolds go (as when it is destroyed): nothing touches it while it is out.
-        restore_disabled();
-        auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
-        contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
-        prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+        drop_contacts_of(s);  // as when it is destroyed: nothing touches it while it is out
         enabled_[s] = 0;
         awake_[s] = false;
         sleep_timer_[s] = 0;

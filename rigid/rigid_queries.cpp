@@ -51,7 +51,7 @@ void RigidSystem::ray_cast_all(const Vec3& from, const Vec3& to, const Collision
 
 namespace {
 void check_query_shape(const Shape& shape, const Transform& xf, const char* fn) {
-    if (shape.type == ShapeType::Plane || shape.type == ShapeType::TriangleMesh)
+    if (!shape.can_be_dynamic())  // a plane, a mesh, or a compound holding one
         throw RigidError(std::string(fn) + ": the query shape must be convex or a compound, got a " +
                          shape_type_name(shape.type));
     if (!is_finite(xf.p) || !is_finite(xf.q) || xf.q.norm() < Real(1e-6))
@@ -108,22 +108,13 @@ void RigidSystem::overlap_aabb(const Aabb& box, std::vector<BodyId>& out) const 
 }
 
 void RigidSystem::overlap_shape(const Shape& shape, const Transform& xf, std::vector<BodyId>& out) const {
-    if (shape.type == ShapeType::Plane || shape.type == ShapeType::TriangleMesh)
-        throw RigidError(std::string("overlap_shape: the query shape must be convex or a compound, got a ") +
-                         shape_type_name(shape.type));
-    if (!is_finite(xf.p) || !is_finite(xf.q))
-        throw RigidError("overlap_shape: the query transform must be finite, got " + to_text(xf.p));
+    check_query_shape(shape, xf, "overlap_shape");
     out.clear();
     thread_local ManifoldList manifolds;  // reused: a query allocates nothing once warm
     tree_.query(shape.bounds(xf), [&](std::int32_t proxy) {
         const std::uint32_t slot = tree_.user_data(proxy);
         if (sensor_[slot]) return true;
-        manifolds.clear();
-        collide(shape, xf, shape_[slot], origin_transform(slot), 0, manifolds);
-        bool touching = false;
-        for (const Manifold& m : manifolds)
-            for (int k = 0; k < m.count && !touching; ++k) touching = m.points[k].depth >= 0;
-        if (touching) out.push_back(id_of_slot(slot));
+        if (shapes_touch(shape, xf, shape_[slot], origin_transform(slot), manifolds)) out.push_back(id_of_slot(slot));
         return true;
     });
     std::sort(out.begin(), out.end(), [](const BodyId& a, const BodyId& b) { return a.index < b.index; });

@@ -354,6 +354,8 @@ private:
     void wake_island(std::uint32_t slot);
     /// Wakes the islands of the bodies slot s touches (its manifolds), as when it goes away.
     void wake_touching(std::uint32_t s);
+    /// Removes slot s's manifolds from this and last step's contacts (it is destroyed or disabled).
+    void drop_contacts_of(std::uint32_t s);
     /// Mass properties for a dynamic body of slot s's shape and creation mass or density (throws RigidError).
     MassProperties dynamic_mass_properties(std::uint32_t s, const char* where) const;
     std::uint32_t find_root(std::uint32_t slot);

@@ -9,12 +9,6 @@ using namespace sinew::capi;
 
 namespace {
 
-/// Checks and converts a shape definition; the factories check the dimensions.
-bool unit_quat_ok(const sinew_quat& q) {
-    const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-    return std::isfinite(n2) && n2 > 1e-12f;
-}
-
 /// The body and its world, or the failure already recorded; also rejects calls during a step.
 struct Target {
     World* world = nullptr;

@@ -15,10 +15,6 @@ constexpr Real kPlaneHalf = 50;      // m: a plane is drawn as a square this far
 constexpr Real kNormalLength = Real(0.2);
 constexpr float kPointSize = 0.05f;
 
-sinew_transform to_c(const Transform& t) {
-    return {capi::to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
-}
-
 struct Drawer {
     const sinew_debug_draw& d;
 

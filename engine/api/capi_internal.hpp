@@ -62,6 +62,11 @@ inline sinew_transform to_c(const Transform& t) {
     return {to_c(t.p), {float(t.q.x()), float(t.q.y()), float(t.q.z()), float(t.q.w())}};
 }
 bool finite(const sinew_vec3& v);
+/// A quaternion that normalises: finite and not (nearly) zero.
+inline bool unit_quat_ok(const sinew_quat& q) {
+    const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+    return std::isfinite(n2) && n2 > 1e-12f;
+}
 /// The shape a sinew_shape_def describes (engine/api/capi_shape.cpp); ShapeError names the bad field,
 /// starting with `where` ("def->shape").
 Shape make_shape(const sinew_shape_def& d, const char* where);

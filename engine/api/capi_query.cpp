@@ -33,14 +33,12 @@ std::vector<BodyId>& scratch() {
 sinew_status query_shape(const char* fn, const sinew_shape_def& shape, const sinew_transform& transform, Shape& s,
                          Transform& xf) {
     if (!finite(transform.p)) return invalid(fn, "transform->p must be finite");
-    const sinew_quat& q = transform.q;
-    const float n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-    if (!(std::isfinite(n2) && n2 > 1e-12f)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
+    if (!unit_quat_ok(transform.q)) return invalid(fn, "transform->q must be a finite, non-zero quaternion");
     const int type = enum_value(shape.type);
     if (type == SINEW_SHAPE_PLANE || type == SINEW_SHAPE_MESH)
         return invalid(fn, "shape->type = " + std::to_string(type) + ": a query shape must not be a plane or a mesh");
     s = make_shape(shape, "shape->");  // ShapeError names the bad field
-    xf = {to_vec(transform.p), to_quat(q).normalized()};
+    xf = {to_vec(transform.p), to_quat(transform.q).normalized()};
     return SINEW_OK;
 }
 

@@ -69,9 +69,7 @@ Shape shape_at(const sinew_shape_def& d, const std::string& where, bool in_compo
             for (int i = 0; i < d.child_count; ++i) {
                 const std::string at = field(where, "children") + "[" + std::to_string(i) + "]";
                 const sinew_compound_child& c = d.children[i];
-                const float n2 = c.transform.q.x * c.transform.q.x + c.transform.q.y * c.transform.q.y +
-                                 c.transform.q.z * c.transform.q.z + c.transform.q.w * c.transform.q.w;
-                if (!finite(c.transform.p) || !(std::isfinite(n2) && n2 > 1e-12f))
+                if (!finite(c.transform.p) || !unit_quat_ok(c.transform.q))
                     bad(at + ".transform", "must be finite with a non-zero quaternion");
                 children.emplace_back(Transform{to_vec(c.transform.p), to_quat(c.transform.q).normalized()},
                                       shape_at(c.shape, at + ".shape", true));

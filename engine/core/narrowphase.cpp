@@ -178,6 +178,15 @@ int collide(const Shape& a, const Transform& xa, const Shape& b, const Transform
     return static_cast<int>(out.size() - before);
 }
 
+bool shapes_touch(const Shape& a, const Transform& xa, const Shape& b, const Transform& xb, ManifoldList& scratch) {
+    scratch.clear();
+    collide(a, xa, b, xb, 0, scratch);
+    for (const Manifold& m : scratch)
+        for (int k = 0; k < m.count; ++k)
+            if (m.points[k].depth >= 0) return true;
+    return false;
+}
+
 bool can_collide(ShapeType a, ShapeType b) {
     if (idx(a) >= kTypeCount || idx(b) >= kTypeCount) return false;
     // A compound may hold dynamic children, so it can meet anything; whether a particular compound of

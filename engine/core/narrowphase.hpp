@@ -20,6 +20,10 @@ using ManifoldList = std::vector<Manifold>;
 int collide(const Shape& a, const Transform& xa, const Shape& b, const Transform& xb, Real margin,
             ManifoldList& out);
 
+/// Do the shapes overlap or touch (a point of depth >= 0 at margin 0)? `scratch` is the narrow phase's
+/// output, reused by the caller so that a query allocates nothing once warm.
+bool shapes_touch(const Shape& a, const Transform& xa, const Shape& b, const Transform& xb, ManifoldList& scratch);
+
 /// Is there a collision routine for this pair of types (in either order)?
 bool can_collide(ShapeType a, ShapeType b);
 

@@ -56,11 +56,9 @@ void parts_of(const Shape& a, const Transform& xa, const Shape& b, const Transfo
 }
 
 void check_cast_shape(const Shape& a, const char* fn) {
-    if (a.type == ShapeType::Plane || a.type == ShapeType::TriangleMesh)
-        throw ShapeError(std::string(fn) + ": the moving shape must be a sphere, box, capsule, hull or compound, got a " +
+    if (!a.can_be_dynamic())  // a plane, a mesh, or a compound holding one
+        throw ShapeError(std::string(fn) + ": the moving shape must be a sphere, box, capsule, hull or compound of them, got a " +
                          shape_type_name(a.type));
-    if (a.type == ShapeType::Compound)
-        for (const CompoundChild& c : *a.children) check_cast_shape(*c.shape, fn);
 }
 
 PartScratch& scratch() {

@@ -423,7 +423,7 @@ private:
         d.allow_sleep = read_bool(b, "allow_sleep", d.allow_sleep);
         d.filter = read_filter(b);
         d.sensor = read_bool(b, "sensor", false);
-        if (d.sensor && (d.shape.type == ShapeType::Plane || d.shape.type == ShapeType::TriangleMesh))
+        if (d.sensor && !d.shape.can_be_dynamic())
             shape.fail(std::string("a sensor's shape must be a sphere, box, capsule, hull or compound, and body \"") +
                        body.name + "\"'s is a " + shape_type_name(d.shape.type));
         check_mass_properties(d, b);

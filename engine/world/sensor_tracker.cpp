@@ -41,12 +41,7 @@ void SensorTracker::find(const RigidSystem& rigid, const SoftSystem& soft, const
         const Shape& vs = rigid.slot_shape(v);
         const Transform vx = rigid.slot_transform(v);
         if (!vs.bounds(vx).overlaps(box)) return;  // the tree's boxes are fattened
-        manifolds_.clear();
-        collide(shape, xf, vs, vx, 0, manifolds_);
-        bool touching = false;
-        for (const Manifold& m : manifolds_)
-            for (int k = 0; k < m.count && !touching; ++k) touching = m.points[k].depth >= 0;
-        if (touching) next_.push_back({s, sg, 0, v, rigid.id_of_slot(v).generation});
+        if (shapes_touch(shape, xf, vs, vx, manifolds_)) next_.push_back({s, sg, 0, v, rigid.id_of_slot(v).generation});
     });
     // The tree reports in its own order: visitors by slot.
     std::sort(next_.begin() + static_cast<std::ptrdiff_t>(first), next_.end());
