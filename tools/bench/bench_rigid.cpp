@@ -16,6 +16,7 @@
 #include "tools/bench/bench_cloth.hpp"
 #include "tools/bench/bench_coupling.hpp"
 #include "tools/bench/bench_fem.hpp"
+#include "tools/bench/bench_robustness.hpp"
 #include "tools/bench/bench_scale.hpp"
 #include "tools/bench/bench_threads.hpp"
 #include "tools/bench/results_file.hpp"
@@ -60,6 +61,7 @@ public:
         std::vector<BodyId> ids;
         world_ = build_world(s, &ids);
         world_->set_threads(workers);
+        all_ = ids;
         for (std::size_t i = 0; i < ids.size(); ++i)
             if (s.bodies[i].def.type == BodyType::Dynamic) dyn_.push_back(ids[i]);
         run.scene = scene.name;
@@ -86,10 +88,16 @@ public:
         for (BodyId id : dyn_) p.push_back(world_->rigid().transform(id).p);
         return p;
     }
+    std::vector<Transform> poses() const override {
+        std::vector<Transform> p;
+        p.reserve(all_.size());
+        for (BodyId id : all_) p.push_back(world_->rigid().transform(id));
+        return p;
+    }
 
 private:
     std::unique_ptr<World> world_;
-    std::vector<BodyId> dyn_;
+    std::vector<BodyId> dyn_, all_;
     SimdKernel simd_;
 };
 
@@ -222,8 +230,9 @@ int cmd_bench(const std::vector<std::string>& args) {
     if (!args.empty() && args[0] == "coupling") return cmd_bench_coupling(args);  // tools/bench/bench_coupling.cpp
     if (!args.empty() && args[0] == "threads") return cmd_bench_threads(args);  // tools/bench/bench_threads.cpp
     if (!args.empty() && args[0] == "scale") return cmd_bench_scale(args);  // tools/bench/bench_scale.cpp
+    if (!args.empty() && args[0] == "robustness") return cmd_bench_robustness(args);  // tools/bench/bench_robustness.cpp
     if (args.empty() || args[0] != "rigid")
-        throw UsageError("which suite? 'rigid', 'cloth', 'fem', 'coupling', 'threads' or 'scale'");
+        throw UsageError("which suite? 'rigid', 'cloth', 'fem', 'coupling', 'threads', 'scale' or 'robustness'");
     std::vector<std::string> scenes(std::begin(kDefaultScenes), std::end(kDefaultScenes));
     int steps = -1, iterations = 10, workers = 1;
     bool clock_given = false;
@@ -401,5 +410,16 @@ const Command bench_command = {
     "on, timed once they sleep (at least 240 steps). One JSON\n"
     "line per grid: bodies, ms_per_step_median (wall), us_per_body, ratio_to_5k (over the grid nearest\n"
     "5,000 bodies), us_detect/us_solve/us_positions (the rigid stages per body), bytes_per_body (heap the\n"
-    "settled world took), awake, finite. --markdown rewrites bench-scale.\n"};
+    "settled world took), awake, finite. --markdown rewrites bench-scale.\n"
+    "\n"
+    "usage: sinew bench robustness [--scenes a,b,...] [--engines e,e/variant,...] [--iterations N]\n"
+    "                              [--markdown FILE] [--scene-dir DIR]\n"
+    "\n"
+    "Runs the hard scenes (default: hard-heavy-on-pyramid, hard-heavy-on-light, hard-chain, hard-fast,\n"
+    "hard-overlap, hard-arch, hard-ramp-stack, hard-spin; written by scripts/hard_scenes.py) under each\n"
+    "Sinew solver (engine sinew; variants soft-step, split-impulse, baumgarte, newton) and Bullet (where\n"
+    "it can build the scene: rigid bodies and ball joints). Each scene has one physical figure checked\n"
+    "against a limit from its analytic answer (the scene's description). One JSON line per run: scene,\n"
+    "engine, variant, steps, ms_per_step_median (thread CPU), figure, value, limit, pass, finite, note.\n"
+    "--markdown rewrites the bench-robustness section: a pass/fail matrix.\n"};
 }  // namespace sinew::tool

@@ -60,6 +60,9 @@ public:
     virtual void step() = 0;
     /// Positions of the dynamic bodies, in a fixed order.
     virtual std::vector<Vec3> positions() const = 0;
+    /// Poses of every body of the scene, static ones included, in the scene's body order (the robustness
+    /// benchmark's checks read joint anchors and orientations from them).
+    virtual std::vector<Transform> poses() const = 0;
     /// False once the last step blew up, even if the engine contained it and left the state finite
     /// (Sinew's World::faults).
     virtual bool healthy() const { return true; }
@@ -69,6 +72,8 @@ public:
 /// Bullet 3.24 (Debian's libbullet), configured as issue 3 prescribes: btDiscreteDynamicsWorld with the
 /// default sequential-impulse solver, `iterations` solver iterations, stepSimulation(h, 0), per-contact
 /// friction equal to Sinew's mixed friction, deactivation disabled when the scene disables sleeping.
+/// Ball joints become btPoint2PointConstraint; any other joint type, and soft bodies, throw
+/// std::runtime_error (the scene is one Bullet is not run on).
 std::unique_ptr<RigidContender> make_bullet_contender(const SceneDesc& scene, int iterations);
 
 int cmd_bench(const std::vector<std::string>& args);

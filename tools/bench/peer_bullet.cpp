@@ -29,8 +29,10 @@ struct BulletWorld {
     std::vector<std::vector<btScalar>> mesh_vertices;
     std::vector<std::unique_ptr<btDefaultMotionState>> motion;
     std::vector<std::unique_ptr<btRigidBody>> bodies;
+    std::vector<std::unique_ptr<btTypedConstraint>> joints;
 
     ~BulletWorld() {
+        for (auto& j : joints) world.removeConstraint(j.get());
         for (auto& b : bodies) world.removeRigidBody(b.get());
     }
 
@@ -85,6 +87,7 @@ class BulletContender final : public RigidContender {
 public:
     BulletContender(const SceneDesc& scene, int iterations) : h_(btScalar(scene.settings.time_step)) {
         const RigidSettings& rs = scene.settings.rigid;
+        if (!scene.soft_bodies.empty()) throw std::runtime_error("bullet peer: soft bodies are not run here");
         bw_.world.setGravity(bt(rs.gravity));
         bw_.world.getSolverInfo().m_numIterations = iterations;
         for (const SceneBody& sb : scene.bodies) {
@@ -118,6 +121,14 @@ public:
             }
             bw_.world.addRigidBody(body);
         }
+        for (const SceneJoint& sj : scene.joints) {
+            if (sj.def.type != JointType::Ball || sj.soft_a || sj.soft_b)
+                throw std::runtime_error("bullet peer: only ball joints between rigid bodies");
+            // Pivots in each body's frame: the body origin is Bullet's centre of mass (centred shapes).
+            bw_.joints.push_back(std::make_unique<btPoint2PointConstraint>(
+                *bw_.bodies[sj.body_a], *bw_.bodies[sj.body_b], bt(sj.def.local_anchor_a), bt(sj.def.local_anchor_b)));
+            bw_.world.addConstraint(bw_.joints.back().get(), !sj.def.collide_connected);
+        }
         run.scene = scene.name;
         run.engine = "bullet";
         run.variant = "default";
@@ -125,6 +136,16 @@ public:
         run.iterations = iterations;
     }
     void step() override { bw_.world.stepSimulation(h_, 0); }
+    std::vector<Transform> poses() const override {
+        std::vector<Transform> p(bw_.bodies.size());
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            const btTransform& t = bw_.bodies[i]->getWorldTransform();
+            const btQuaternion q = t.getRotation();
+            p[i].p = Vec3(Real(t.getOrigin().x()), Real(t.getOrigin().y()), Real(t.getOrigin().z()));
+            p[i].q = Quat(Real(q.w()), Real(q.x()), Real(q.y()), Real(q.z()));
+        }
+        return p;
+    }
     std::vector<Vec3> positions() const override {
         std::vector<Vec3> p(dynamic_.size());
         for (std::size_t i = 0; i < dynamic_.size(); ++i) {
