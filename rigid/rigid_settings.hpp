@@ -48,6 +48,12 @@ struct RigidSettings {
     /// it at 3e-4 J with a 4.8 cm elastic sag; 0.7 sags 5.0 cm (sweep in git log).
     Real contact_damping_ratio = 1;
     Real contact_push_velocity = 3;    ///< soft step: m/s cap on the speed that removes penetration
+    /// Largest mass ratio a contact sees between a body and the one holding it up (>= 1; 0 = no bound).
+    /// Gauss-Seidel moves the momentum of a heavy body through a light one by about twice their mass
+    /// ratio per pass, so a 1000 kg box on 1 kg ones ploughs through them at any iteration count; where a
+    /// contact holds a body more than this many times heavier, the supporting body's inverse mass and
+    /// inertia are scaled in that contact alone (rigid/rigid_support.cpp, docs/rigid-solvers.md).
+    Real contact_mass_ratio = 8;
     Real baumgarte = Real(0.2);              ///< fraction of the penetration removed per step
     Real linear_slop = Real(0.005);          ///< m of penetration left alone (keeps contacts persistent)
     Real restitution_threshold = Real(1.0);  ///< m/s: slower impacts do not bounce

@@ -48,6 +48,8 @@ void RigidSystem::set_settings(const RigidSettings& s) {
         bad("contact_damping_ratio", "must be finite and >= 0");
     if (!(s.contact_push_velocity > 0) || !is_finite(s.contact_push_velocity))
         bad("contact_push_velocity", "must be finite and > 0");
+    if (!(s.contact_mass_ratio == 0 || (s.contact_mass_ratio >= 1 && is_finite(s.contact_mass_ratio))))
+        bad("contact_mass_ratio", "must be 0 (no bound) or finite and >= 1, got " + to_text(s.contact_mass_ratio));
     if (!(s.solver < RigidSolverKind::Count)) bad("solver", "is not a RigidSolverKind (" + std::to_string(int(s.solver)) + ")");
     // The solver object follows the method (split impulses and Baumgarte share one); impulses cached by one
     // are not meaningful to another.
@@ -82,6 +84,7 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
             break;
         case Stage::DetectCollisions: detect_collisions(ctx.h); break;
         case Stage::SolveVelocities:
+            compute_support_levels();
             solver_->solve_velocities(*this, ctx.h);
             unintegrated_time_ = solver_->unintegrated_time_after_solve(ctx.h);
             break;

@@ -328,8 +328,20 @@ public:
     /// The same for the listed slots only, on the calling thread (a solver working through one block of
     /// independent islands at a time).
     void integrate_velocities_of(const std::uint32_t* slots, std::size_t count, Real h);
+    /// Inverse-mass scales for a contact between slots a and b this step (1 and 1 unless the contact
+    /// holds a body up under one more than RigidSettings::contact_mass_ratio times heavier: then the
+    /// supporting body's inverse mass and inverse inertia are scaled so the ratio seen by the contact is
+    /// that bound; rigid/rigid_support.cpp). Valid from SolveVelocities on.
+    void contact_mass_scales(std::uint32_t a, std::uint32_t b, Real& scale_a, Real& scale_b) const {
+        scale_a = scale_b = 1;
+        if (!support_level_.empty()) support_scales(a, b, scale_a, scale_b);
+    }
 
 private:
+    /// Contact-graph levels (support_level_) when some contact pairs two moving bodies whose masses
+    /// differ by more than contact_mass_ratio; cleared otherwise.
+    void compute_support_levels();
+    void support_scales(std::uint32_t a, std::uint32_t b, Real& scale_a, Real& scale_b) const;
     void integrate_velocity(std::uint32_t s, Real h);
     void check(BodyId id, const char* where) const;
     void prepare_mass_state();
@@ -409,6 +421,10 @@ private:
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
     std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
+    /// Per slot: contacts between the body and an immovable one (0 for those; breadth first), or empty
+    /// when no contact needs them this step (compute_support_levels).
+    std::vector<std::int32_t> support_level_;
+    std::vector<std::uint32_t> support_adj_start_, support_adj_, support_fill_, support_queue_;
     PreSolveFn pre_solve_;
     /// Manifolds the pre-solve callback disabled this step: index into contacts_ and its point count,
     /// given back (impulses cleared) when the next detection starts, so the contact cache sees them whole.

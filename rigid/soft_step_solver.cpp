@@ -325,7 +325,10 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             set_lane(c.n, l, n);
             set_lane(c.t[0], l, t0);
             set_lane(c.t[1], l, t1);
-            const Real wa = st.inv_mass[a], wb = st.inv_mass[b];
+            // A body holding up one far heavier looks heavier to this contact alone (rigid_support.cpp).
+            Real sa, sb;
+            sys.contact_mass_scales(a, b, sa, sb);
+            const Real wa = sa * st.inv_mass[a], wb = sb * st.inv_mass[b];
             c.inv_ma.set_lane(l, wa);
             c.inv_mb.set_lane(l, wb);
             c.inv_m_sum.set_lane(l, wa + wb);
@@ -340,8 +343,8 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             set_lane(in.vb, l, st.v[b]);
             set_lane(in.wa, l, st.w[a]);
             set_lane(in.wb, l, st.w[b]);
-            const Mat3& ia = st.inv_inertia_world[a];
-            const Mat3& ib = st.inv_inertia_world[b];
+            const Mat3 ia = sa * st.inv_inertia_world[a];
+            const Mat3 ib = sb * st.inv_inertia_world[b];
             for (int row = 0; row < 3; ++row) {
                 set_lane(c.ia[row], l, ia.row(row).transpose());
                 set_lane(c.ib[row], l, ib.row(row).transpose());

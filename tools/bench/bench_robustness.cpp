@@ -350,7 +350,7 @@ std::string markdown(const std::vector<HardRun>& runs, const std::vector<std::st
             if (!hit) md << " - |";
             else if (hit->figure_name.empty()) md << " not run: " << hit->note << " |";
             else {
-                std::snprintf(buf, sizeof buf, " %s %.3g, %.2f ms%s%s |", hit->pass ? "pass" : "**FAIL**", hit->figure,
+                std::snprintf(buf, sizeof buf, " %s %.4g, %.2f ms%s%s |", hit->pass ? "pass" : "**FAIL**", hit->figure,
                               hit->ms_per_step_median, hit->finite ? "" : ", blew up",
                               hit->note.empty() ? "" : (", " + hit->note).c_str());
                 md << buf;
