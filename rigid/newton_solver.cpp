@@ -87,10 +87,8 @@ private:
     int level_of(std::uint32_t ci) const { return std::max(level_[contacts_[ci].a], level_[contacts_[ci].b]); }
 
     std::vector<NContact> contacts_;
-    std::vector<int> level_;             // per body slot: contact-graph distance from the ground
+    ContactLevels level_;                // per body slot: contact-graph distance from the ground
     std::vector<std::uint32_t> order_;   // contact indices by level, for shock propagation
-    std::vector<std::uint32_t> queue_;
-    std::vector<std::uint32_t> adj_start_, adj_fill_, adj_;  // contact graph, compressed rows
     std::vector<Vec3> pushed_;           // per body slot: displacement by this step's projection
 };
 
@@ -237,43 +235,12 @@ void NewtonImpulseSolver::before_integrate_velocities(RigidSystem& sys, Real h) 
 }
 
 void NewtonImpulseSolver::compute_levels(const RigidSystem& sys) {
-    const RigidSystem::State& st = sys.state();
-    const std::size_t n = st.x.size();
-    const int kUnreached = 1 << 30;
-    level_.assign(n, kUnreached);
-    queue_.clear();
-    for (std::uint32_t s = 0; s < n; ++s)
-        if (st.inv_mass[s] == 0) {
-            level_[s] = 0;  // static, kinematic and sleeping bodies are the ground
-            queue_.push_back(s);
-        }
-    // Breadth-first over the contact graph: level = contacts between the body and the ground. The
-    // adjacency is a compressed row list in member arrays, rebuilt each step without allocating.
     // Bodies side by side (a pyramid's row) get the same level and are solved together, both free.
-    adj_start_.assign(n + 1, 0);
-    for (const NContact& c : contacts_)
-        if (c.count > 0) {
-            ++adj_start_[c.a + 1];
-            ++adj_start_[c.b + 1];
-        }
-    for (std::size_t i = 0; i < n; ++i) adj_start_[i + 1] += adj_start_[i];
-    adj_.resize(adj_start_[n]);
-    adj_fill_.assign(adj_start_.begin(), adj_start_.end() - 1);
-    for (const NContact& c : contacts_)
-        if (c.count > 0) {
-            adj_[adj_fill_[c.a]++] = c.b;
-            adj_[adj_fill_[c.b]++] = c.a;
-        }
-    for (std::size_t head = 0; head < queue_.size(); ++head) {
-        std::uint32_t s = queue_[head];
-        for (std::uint32_t k = adj_start_[s]; k < adj_start_[s + 1]; ++k) {
-            std::uint32_t o = adj_[k];
-            if (level_[o] == kUnreached) {
-                level_[o] = level_[s] + 1;
-                queue_.push_back(o);
-            }
-        }
-    }
+    level_.compute(sys.state().inv_mass, contacts_.size(), [&](std::size_t i, std::uint32_t& a, std::uint32_t& b) {
+        a = contacts_[i].a;
+        b = contacts_[i].b;
+        return contacts_[i].count > 0;
+    });
     // A contact belongs to the level of its higher body: level L's contacts are those that hold the
     // bodies of level L on level L - 1 and those between bodies of level L.
     order_.resize(contacts_.size());

@@ -21,10 +21,6 @@
 
 namespace sinew {
 
-namespace {
-constexpr std::int32_t kUnreached = 0x3FFFFFFF;
-}
-
 void RigidSystem::compute_support_levels() {
     support_level_.clear();
     const Real bound = settings_.contact_mass_ratio;
@@ -41,40 +37,11 @@ void RigidSystem::compute_support_levels() {
         }
     }
     if (!needed) return;
-    const std::size_t n = st.x.size();
-    support_level_.assign(n, kUnreached);
-    support_queue_.clear();
-    for (std::uint32_t s = 0; s < n; ++s)
-        if (st.inv_mass[s] == 0) {
-            support_level_[s] = 0;
-            support_queue_.push_back(s);
-        }
-    // Adjacency as compressed rows, rebuilt without allocating once grown.
-    support_adj_start_.assign(n + 1, 0);
-    for (const ContactManifold& c : contacts_)
-        if (c.manifold.count > 0) {
-            ++support_adj_start_[c.body_a + 1];
-            ++support_adj_start_[c.body_b + 1];
-        }
-    for (std::size_t i = 0; i < n; ++i) support_adj_start_[i + 1] += support_adj_start_[i];
-    support_adj_.resize(support_adj_start_[n]);
-    support_fill_.assign(support_adj_start_.begin(), support_adj_start_.end() - 1);
-    for (const ContactManifold& c : contacts_)
-        if (c.manifold.count > 0) {
-            support_adj_[support_fill_[c.body_a]++] = c.body_b;
-            support_adj_[support_fill_[c.body_b]++] = c.body_a;
-        }
-    std::vector<std::uint32_t>& queue = support_queue_;
-    for (std::size_t head = 0; head < queue.size(); ++head) {
-        const std::uint32_t s = queue[head];
-        for (std::uint32_t k = support_adj_start_[s]; k < support_adj_start_[s + 1]; ++k) {
-            const std::uint32_t o = support_adj_[k];
-            if (support_level_[o] == kUnreached) {
-                support_level_[o] = support_level_[s] + 1;
-                queue.push_back(o);
-            }
-        }
-    }
+    support_level_.compute(st.inv_mass, contacts_.size(), [&](std::size_t i, std::uint32_t& a, std::uint32_t& b) {
+        a = contacts_[i].body_a;
+        b = contacts_[i].body_b;
+        return contacts_[i].manifold.count > 0;
+    });
 }
 
 void RigidSystem::support_scales(std::uint32_t a, std::uint32_t b, Real& scale_a, Real& scale_b) const {

@@ -21,6 +21,7 @@
 #include "engine/core/slots.hpp"
 #include "engine/core/step_fault.hpp"
 #include "engine/core/task_system.hpp"
+#include "rigid/contact_levels.hpp"
 #include "rigid/joint.hpp"
 #include "rigid/rigid_body.hpp"
 #include "rigid/rigid_settings.hpp"
@@ -423,8 +424,7 @@ private:
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     /// Per slot: contacts between the body and an immovable one (0 for those; breadth first), or empty
     /// when no contact needs them this step (compute_support_levels).
-    std::vector<std::int32_t> support_level_;
-    std::vector<std::uint32_t> support_adj_start_, support_adj_, support_fill_, support_queue_;
+    ContactLevels support_level_;
     PreSolveFn pre_solve_;
     /// Manifolds the pre-solve callback disabled this step: index into contacts_ and its point count,
     /// given back (impulses cleared) when the next detection starts, so the contact cache sees them whole.
