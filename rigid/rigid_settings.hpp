@@ -58,7 +58,9 @@ struct RigidSettings {
     Real linear_slop = Real(0.005);          ///< m of penetration left alone (keeps contacts persistent)
     Real restitution_threshold = Real(1.0);  ///< m/s: slower impacts do not bounce
     Real contact_margin = Real(0.02);        ///< m: speculative contact distance and fat-AABB margin
-    Real max_correction_velocity = Real(4);  ///< m/s cap on the penetration bias
+    /// m/s cap on the penetration bias (split impulses, Baumgarte) and on the Newtonian solver's
+    /// penetration projection per step (times h): deep overlaps separate no faster.
+    Real max_correction_velocity = Real(4);
     // Sleeping (seed 001 ch.2): an island sleeps when all its bodies stay below these for sleep_time.
     bool sleeping = true;
     Real sleep_linear_velocity = Real(0.05);  ///< m/s
