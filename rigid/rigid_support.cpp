@@ -24,8 +24,9 @@ namespace sinew {
 void RigidSystem::compute_support_levels() {
     support_level_.clear();
     const Real bound = settings_.contact_mass_ratio;
-    // The soft step alone reads them (rigid/soft_step_solver.cpp); the Newtonian solver has its own levels.
-    if (bound <= 0 || settings_.solver != RigidSolverKind::SoftStep) return;
+    // The sequential-impulse solvers read them (soft_step_solver.cpp, si_solver.cpp); the Newtonian
+    // solver's shock propagation has its own levels and freezes lower bodies outright.
+    if (bound <= 0 || settings_.solver == RigidSolverKind::Newton) return;
     const State& st = state_;
     // Most steps have no such contact: one pass over the manifolds decides.
     bool needed = false;

@@ -42,6 +42,7 @@ struct ContactConstraint {
     std::uint32_t a, b;
     Vec3 n, t[2];
     Real friction;
+    Real inv_ma, inv_mb;     // the bodies' inverse masses as this contact sees them (mass-ratio bound)
     int count;
     std::uint32_t manifold;  // index into RigidSystem::contacts()
     PointConstraint p[Manifold::kMaxPoints];
@@ -93,6 +94,12 @@ void SequentialImpulseSolver::prepare(RigidSystem& sys, Real h) {
         c.manifold = static_cast<std::uint32_t>(ci);
         const SolverBody& A = bodies_[c.a];
         const SolverBody& B = bodies_[c.b];
+        // A body holding up one far heavier looks heavier to this contact alone (rigid/rigid_support.cpp).
+        Real sa, sb;
+        sys.contact_mass_scales(c.a, c.b, sa, sb);
+        c.inv_ma = sa * A.inv_m;
+        c.inv_mb = sb * B.inv_m;
+        const Mat3 inv_ia = sa * A.inv_i, inv_ib = sb * B.inv_i;
         for (int k = 0; k < c.count; ++k) {
             const ContactPoint& cp = cm.manifold.points[k];
             PointConstraint& p = c.p[k];
@@ -100,16 +107,16 @@ void SequentialImpulseSolver::prepare(RigidSystem& sys, Real h) {
             p.rb = cp.position - st.x[c.b];
             p.ra_n = p.ra.cross(c.n);
             p.rb_n = p.rb.cross(c.n);
-            p.ia_n = A.inv_i * p.ra_n;
-            p.ib_n = B.inv_i * p.rb_n;
-            Real kn = A.inv_m + B.inv_m + p.ra_n.dot(p.ia_n) + p.rb_n.dot(p.ib_n);
+            p.ia_n = inv_ia * p.ra_n;
+            p.ib_n = inv_ib * p.rb_n;
+            Real kn = c.inv_ma + c.inv_mb + p.ra_n.dot(p.ia_n) + p.rb_n.dot(p.ib_n);
             p.normal_mass = kn > 0 ? 1 / kn : 0;
             for (int t = 0; t < 2; ++t) {
                 p.ra_t[t] = p.ra.cross(c.t[t]);
                 p.rb_t[t] = p.rb.cross(c.t[t]);
-                p.ia_t[t] = A.inv_i * p.ra_t[t];
-                p.ib_t[t] = B.inv_i * p.rb_t[t];
-                Real kt = A.inv_m + B.inv_m + p.ra_t[t].dot(p.ia_t[t]) + p.rb_t[t].dot(p.ib_t[t]);
+                p.ia_t[t] = inv_ia * p.ra_t[t];
+                p.ib_t[t] = inv_ib * p.rb_t[t];
+                Real kt = c.inv_ma + c.inv_mb + p.ra_t[t].dot(p.ia_t[t]) + p.rb_t[t].dot(p.ib_t[t]);
                 p.tangent_mass[t] = kt > 0 ? 1 / kt : 0;
             }
             const bool warm = set.warm_starting;
@@ -150,8 +157,8 @@ void SequentialImpulseSolver::warm_start() {
         for (int k = 0; k < c.count; ++k) {
             const PointConstraint& p = c.p[k];
             Vec3 j = p.normal_impulse * c.n + p.tangent_impulse[0] * c.t[0] + p.tangent_impulse[1] * c.t[1];
-            A.v -= A.inv_m * j;
-            B.v += B.inv_m * j;
+            A.v -= c.inv_ma * j;
+            B.v += c.inv_mb * j;
             A.w -= p.normal_impulse * p.ia_n + p.tangent_impulse[0] * p.ia_t[0] + p.tangent_impulse[1] * p.ia_t[1];
             B.w += p.normal_impulse * p.ib_n + p.tangent_impulse[0] * p.ib_t[0] + p.tangent_impulse[1] * p.ib_t[1];
         }
@@ -178,8 +185,8 @@ void SequentialImpulseSolver::solve_iteration(bool split) {
             p.tangent_impulse[0] = l0;
             p.tangent_impulse[1] = l1;
             Vec3 j = d0 * c.t[0] + d1 * c.t[1];
-            A.v -= A.inv_m * j;
-            B.v += B.inv_m * j;
+            A.v -= c.inv_ma * j;
+            B.v += c.inv_mb * j;
             A.w -= d0 * p.ia_t[0] + d1 * p.ia_t[1];
             B.w += d0 * p.ib_t[0] + d1 * p.ib_t[1];
         }
@@ -190,8 +197,8 @@ void SequentialImpulseSolver::solve_iteration(bool split) {
             Real acc = std::max(old - p.normal_mass * (vn - p.velocity_target), Real(0));
             Real dl = acc - old;
             p.normal_impulse = acc;
-            A.v -= (dl * A.inv_m) * c.n;
-            B.v += (dl * B.inv_m) * c.n;
+            A.v -= (dl * c.inv_ma) * c.n;
+            B.v += (dl * c.inv_mb) * c.n;
             A.w -= dl * p.ia_n;
             B.w += dl * p.ib_n;
         }
@@ -204,8 +211,8 @@ void SequentialImpulseSolver::solve_iteration(bool split) {
             Real acc = std::max(old - p.normal_mass * (vn - p.pseudo_target), Real(0));
             Real dl = acc - old;
             p.pseudo_impulse = acc;
-            A.vp -= (dl * A.inv_m) * c.n;
-            B.vp += (dl * B.inv_m) * c.n;
+            A.vp -= (dl * c.inv_ma) * c.n;
+            B.vp += (dl * c.inv_mb) * c.n;
             A.wp -= dl * p.ia_n;
             B.wp += dl * p.ib_n;
         }
