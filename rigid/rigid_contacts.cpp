@@ -84,11 +84,7 @@ void RigidSystem::detect_collisions(Real h) {
             std::uint32_t a = tree_.user_data(pa), b = tree_.user_data(pb);
             if (a > b) std::swap(a, b);
             if (type_[a] != BodyType::Dynamic && type_[b] != BodyType::Dynamic) continue;
-            if (sensor_[a] | sensor_[b]) continue;  // sensors detect, never touch
-            if (joints_->filters_pair(a, b)) continue;
-            if (!should_collide(filter_[a], filter_[b])) continue;
-            if (!ignored_pairs_.empty() && std::binary_search(ignored_pairs_.begin(), ignored_pairs_.end(), pair_key(a, b)))
-                continue;
+            if (!may_touch(a, b)) continue;
             pair_keys_.push_back(pair_key(a, b));
         }
         std::sort(pair_keys_.begin(), pair_keys_.end());
@@ -311,6 +307,14 @@ Real RigidSystem::max_penetration() const {
     for (const ContactManifold& c : contacts_)
         for (int i = 0; i < c.manifold.count; ++i) d = std::max(d, c.manifold.points[i].depth);
     return d;
+}
+
+bool RigidSystem::may_touch(std::uint32_t a, std::uint32_t b) const {
+    if (a > b) std::swap(a, b);
+    if (sensor_[a] | sensor_[b]) return false;  // sensors detect, never touch
+    if (joints_->filters_pair(a, b)) return false;
+    if (!should_collide(filter_[a], filter_[b])) return false;
+    return ignored_pairs_.empty() || !std::binary_search(ignored_pairs_.begin(), ignored_pairs_.end(), pair_key(a, b));
 }
 
 }  // namespace sinew

@@ -99,6 +99,7 @@ void RigidSystem::integrate_positions(Real h) {
             if (state_.inv_mass[s] != 0) follow_rotation(s);
     }
     contain_non_finite();
+    if (settings_.continuous) continuous_collisions();
     if (settings_.sleeping) update_sleep(h);
 }
 

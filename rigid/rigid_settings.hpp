@@ -57,6 +57,12 @@ struct RigidSettings {
     Real baumgarte = Real(0.2);              ///< fraction of the penetration removed per step
     Real linear_slop = Real(0.005);          ///< m of penetration left alone (keeps contacts persistent)
     Real restitution_threshold = Real(1.0);  ///< m/s: slower impacts do not bounce
+    /// Continuous collision against static and kinematic bodies (Box2D v3's, for every dynamic body): a
+    /// body that moved more than half its smallest extent in a step and whose centre passed into one of
+    /// them is put back where its shape first touched it (rigid/rigid_continuous.cpp). Speculative
+    /// contacts already stop most fast bodies; this catches what they cannot see (the Newtonian solver's
+    /// detection at candidate poses, a body spun into a wall).
+    bool continuous = true;
     Real contact_margin = Real(0.02);        ///< m: speculative contact distance and fat-AABB margin
     /// m/s cap on the penetration bias (split impulses, Baumgarte) and on the Newtonian solver's
     /// penetration projection per step (times h): deep overlaps separate no faster.

@@ -339,6 +339,12 @@ public:
     }
 
 private:
+    /// Whether two bodies may touch at all: neither a sensor, not joined by a joint that filters the pair,
+    /// filters agreeing, the pair not ignored (the broad phase's test, rigid_contacts.cpp).
+    bool may_touch(std::uint32_t a, std::uint32_t b) const;
+    /// Continuous collision after the step (rigid_continuous.cpp): a body whose centre passed into a static
+    /// or kinematic body this step is put back where its shape first touched it.
+    void continuous_collisions();
     /// Contact-graph levels (support_level_) when some contact pairs two moving bodies whose masses
     /// differ by more than contact_mass_ratio; cleared otherwise.
     void compute_support_levels();

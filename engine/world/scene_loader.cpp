@@ -91,7 +91,7 @@ private:
             o.allow_keys({"kind", "velocity_iterations", "warm_starting", "position_correction", "baumgarte", "slop",
                           "restitution_threshold", "contact_margin", "max_correction_velocity", "newton", "substeps",
                           "contact_hertz", "contact_damping_ratio", "contact_push_velocity", "contact_mass_ratio",
-                          "gyroscopic"});
+                          "gyroscopic", "continuous"});
             // One solver kind. Files of format 1 before it named the sequential-impulse solvers as
             // "sequential_impulse" plus a "position_correction"; they still load (docs/scene-format.md).
             static const std::pair<const char*, RigidSolverKind> kinds[] = {
@@ -127,6 +127,7 @@ private:
             r.contact_damping_ratio = read_real(o, "contact_damping_ratio", r.contact_damping_ratio, Range::NonNegative);
             r.contact_push_velocity = read_real(o, "contact_push_velocity", r.contact_push_velocity, Range::Positive);
             r.contact_mass_ratio = read_real(o, "contact_mass_ratio", r.contact_mass_ratio, Range::NonNegative);
+            r.continuous = read_bool(o, "continuous", r.continuous);
             if (r.contact_mass_ratio != 0 && r.contact_mass_ratio < 1)
                 o.get("contact_mass_ratio").fail("contact_mass_ratio must be 0 (no bound) or >= 1, got " +
                                                  o.get("contact_mass_ratio").json().dump());

@@ -164,6 +164,7 @@ Json settings_json(const World& world) {
     solver["contact_damping_ratio"] = number(r.contact_damping_ratio);
     solver["contact_push_velocity"] = number(r.contact_push_velocity);
     solver["contact_mass_ratio"] = number(r.contact_mass_ratio);
+    solver["continuous"] = r.continuous;
     Json newton = Json::object();
     newton["collision_iterations"] = r.newton_collision_iterations;
     newton["contact_iterations"] = r.newton_contact_iterations;
