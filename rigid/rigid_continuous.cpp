@@ -37,6 +37,7 @@ void RigidSystem::continuous_collisions() {
         if (!slots_.alive(s) || type_[s] != BodyType::Dynamic || !awake_[s] || sensor_[s] || proxy_[s] < 0) continue;
         if (s >= start_x_.size()) continue;
         const Vec3 from = start_x_[s], to = state_.x[s], d = to - from;
+        if (d.squaredNorm() < Real(1e-6)) continue;  // under a millimetre: resting stacks cost nothing more
         // Slow bodies cannot skip through anything their contacts have not already seen: half the smallest
         // extent of the shape's local bounds (Box2D v3's safety factor).
         const Aabb local = shape_[s].bounds(Transform::identity());
