@@ -376,6 +376,30 @@ void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
 
 bool JointSet::active() const { return !impl_->active.empty(); }
 
+namespace {
+
+// Without the soft step's sub-steps, Gauss-Seidel cannot hold a 100 kg body on a 1 kg link: a 20-link
+// chain with a 100:1 end mass came apart under split impulses, Baumgarte and the Newtonian solver (joint
+// errors of metres), hanging at rest under the last two. These solvers bound the mass ratio a joint sees
+// as their contacts do (rigid/rigid_support.cpp): the lighter body's inverse mass and inertia are scaled
+// in this joint alone so the ratio is the bound. The chains then hold together (4-16 cm), at the price of
+// the motion: the chain above feels the end as if it were bound times its link's mass (docs/rigid-solvers.md).
+// The soft step keeps true masses: its chain stays within 15 mm and on the converged path.
+void bound_mass_ratio(JointRows& r, Real bound) {
+    if (!(bound > 0) || r.ma <= 0 || r.mb <= 0) return;
+    if (r.ma > bound * r.mb) {
+        const Real k = bound * r.mb / r.ma;
+        r.ma *= k;
+        r.ia *= k;
+    } else if (r.mb > bound * r.ma) {
+        const Real k = bound * r.ma / r.mb;
+        r.mb *= k;
+        r.ib *= k;
+    }
+}
+
+}  // namespace
+
 void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();
@@ -431,6 +455,7 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
         if (r.ma == 0 && r.mb == 0) continue;
         r.ia = st.inv_inertia_world[r.a];
         r.ib = st.inv_inertia_world[r.b];
+        if (!softness.soft) bound_mass_ratio(r, sys.settings().contact_mass_ratio);
         r.h = h;
         r.inv_h = 1 / h;
         r.spring = make_soft(j.def.frequency, j.def.damping_ratio, h);
