@@ -1,7 +1,7 @@
 // Contact-graph levels: each body's breadth-first distance, over this step's contacts, from the
 // immovable bodies (static, kinematic, asleep: level 0). Shock propagation (rigid/newton_solver.cpp)
-// solves level by level from the ground; the soft step's mass-ratio bound (rigid/rigid_support.cpp) asks
-// which body of a contact holds the other up.
+// solves level by level from the ground; the sequential-impulse solvers' mass-ratio bound
+// (rigid/rigid_support.cpp) asks which body of a contact holds the other up.
 #pragma once
 
 #include <cstdint>

@@ -67,6 +67,7 @@ void RigidSystem::continuous_collisions() {
             t = cast.fraction;
         state_.x[s] = from + t * d;
         state_.q[s] = start_q_[s].slerp(t, state_.q[s]).normalized();
+        w_frame_[s] = state_.q[s];  // the angular velocity is kept as it is (gyroscopic frame, rigid_integration.cpp)
     }
 }
 

@@ -52,7 +52,10 @@ struct RigidSettings {
     /// Gauss-Seidel moves the momentum of a heavy body through a light one by about twice their mass
     /// ratio per pass, so a 1000 kg box on 1 kg ones ploughs through them at any iteration count; where a
     /// contact holds a body more than this many times heavier, the supporting body's inverse mass and
-    /// inertia are scaled in that contact alone (rigid/rigid_support.cpp, docs/rigid-solvers.md).
+    /// inertia are scaled in that contact alone (soft step, split impulses, Baumgarte: rigid/rigid_support.cpp,
+    /// docs/rigid-solvers.md; the Newtonian solver's shock propagation freezes the lower body instead).
+    /// Split impulses, Baumgarte and the Newtonian solver bound joints at this ratio too (the lighter
+    /// body looks heavier in that joint; rigid/joint_set.cpp), so chains with heavy ends hold together.
     Real contact_mass_ratio = 8;
     Real baumgarte = Real(0.2);              ///< fraction of the penetration removed per step
     Real linear_slop = Real(0.005);          ///< m of penetration left alone (keeps contacts persistent)
