@@ -74,6 +74,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
         material_.emplace_back();
         filter_.emplace_back();
         sensor_.push_back(0);
+        bullet_.push_back(0);
         enabled_.push_back(1);
         def_mass_.push_back(0);
         mass_.push_back(0);
@@ -108,6 +109,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     material_[slot] = def.material;
     filter_[slot] = def.filter;
     sensor_[slot] = def.sensor ? 1 : 0;
+    bullet_[slot] = def.bullet && def.type == BodyType::Dynamic ? 1 : 0;
     enabled_[slot] = 1;
     def_mass_[slot] = def.mass;
     if (def.sensor) sensor_slots_.insert(std::lower_bound(sensor_slots_.begin(), sensor_slots_.end(), slot), slot);
@@ -176,6 +178,7 @@ void RigidSystem::destroy_body(BodyId id) {
     }
     if (proxy_[s] != DynamicTree::kNull) tree_.destroy(proxy_[s]);  // a disabled body has none
     proxy_[s] = DynamicTree::kNull;
+    bullet_[s] = 0;
     if (sensor_[s]) {
         sensor_[s] = 0;
         sensor_slots_.erase(std::lower_bound(sensor_slots_.begin(), sensor_slots_.end(), s));
@@ -387,6 +390,11 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
 Vec3 RigidSystem::local_center(BodyId id) const { check(id, "local_center"); return local_com_[id.index]; }
 const Mat3& RigidSystem::inertia_local(BodyId id) const { check(id, "inertia_local"); return inertia_local_[id.index]; }
 bool RigidSystem::is_sensor(BodyId id) const { check(id, "is_sensor"); return sensor_[id.index] != 0; }
+bool RigidSystem::is_bullet(BodyId id) const { check(id, "is_bullet"); return bullet_[id.index] != 0; }
+void RigidSystem::set_bullet(BodyId id, bool bullet) {
+    check(id, "set_bullet");
+    bullet_[id.index] = bullet && type_[id.index] == BodyType::Dynamic ? 1 : 0;
+}
 bool RigidSystem::awake(BodyId id) const { check(id, "awake"); return awake_[id.index]; }
 const CollisionFilter& RigidSystem::filter(BodyId id) const { check(id, "filter"); return filter_[id.index]; }
 void RigidSystem::set_filter(BodyId id, const CollisionFilter& f) {

@@ -56,6 +56,10 @@ struct BodyDef {
     /// soft-body collisions, not found by ray casts or overlap queries. Its shape must be a sphere, box,
     /// capsule, hull or compound. Fixed at creation. What it detects: World::sensor_events().
     bool sensor = false;
+    /// A bullet (Box2D's isBullet): continuous collision against dynamic bodies too, not only static and
+    /// kinematic ones (RigidSettings::continuous, rigid/rigid_continuous.cpp). For small fast bodies such as
+    /// projectiles; dynamic bodies only.
+    bool bullet = false;
     std::uint64_t user_data = 0;
 };
 

@@ -1,5 +1,5 @@
-// Continuous collision against immovable bodies, after the step: a fast body whose centre passed into a
-// static or kinematic body is put back where its shape first touched it.
+// Continuous collision after the step: a fast body whose centre passed into a static or kinematic body
+// (and, for a bullet, into a dynamic one) is put back where its shape first touched it.
 //
 // Speculative contacts (every solver's manifolds reach as far as the pair can close in a step) stop most
 // fast bodies at the surface. They cannot stop what detection does not see: the Newtonian solver detects
@@ -12,7 +12,9 @@
 // its start orientation, against the body the ray hit, for where the shape first touched it. The body is
 // moved there (orientation interpolated to the same fraction) and keeps its velocity: the next step's
 // speculative contact takes the velocity off, as in Box2D. Pairs the pre-solve callback disabled this
-// step are left alone.
+// step are left alone. Bullets (BodyDef::bullet) are also checked against awake dynamic bodies that are
+// not bullets, at those bodies' end-of-step poses: the sequential-impulse solvers' speculative contacts
+// already stop fast bodies at dynamic ones, the Newtonian solver's detection at candidate poses does not.
 #include <algorithm>
 #include <cmath>
 
@@ -49,7 +51,10 @@ void RigidSystem::continuous_collisions() {
         bool found = false;
         tree_.query(segment, [&](std::int32_t proxy) {
             const std::uint32_t o = tree_.user_data(proxy);
-            if (o == s || type_[o] == BodyType::Dynamic || !may_touch(s, o) || disabled_pair(s, o)) return true;
+            // Dynamic bodies are targets only for a bullet, and never another bullet (Box2D's rule).
+            if (o == s || (type_[o] == BodyType::Dynamic && (!bullet_[s] || bullet_[o] || !awake_[o])) ||
+                !may_touch(s, o) || disabled_pair(s, o))
+                return true;
             RayHit hit;
             if (sinew::ray_cast(shape_[o], origin_transform(o), from, to, best, hit) && (!found || hit.fraction < best)) {
                 best = hit.fraction;

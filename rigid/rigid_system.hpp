@@ -185,6 +185,10 @@ public:
     bool slot_enabled(std::uint32_t slot) const { return enabled_[slot] != 0; }
     /// A sensor (BodyDef::sensor): it is in the broad phase for the sensor queries only.
     bool is_sensor(BodyId id) const;
+    /// Whether continuous collision treats the body as a bullet (BodyDef::bullet); set_bullet changes it
+    /// (ignored for a body that is not dynamic, which cannot be one). Throws RigidError for a bad id.
+    bool is_bullet(BodyId id) const;
+    void set_bullet(BodyId id, bool bullet);
     bool slot_sensor(std::uint32_t slot) const { return sensor_[slot] != 0; }
     /// The live sensors' slots, ascending.
     const std::vector<std::uint32_t>& sensor_slots() const { return sensor_slots_; }
@@ -392,6 +396,7 @@ private:
     std::vector<Material> material_;
     std::vector<CollisionFilter> filter_;
     std::vector<std::uint8_t> sensor_;          ///< 1 for a sensor (BodyDef::sensor)
+    std::vector<std::uint8_t> bullet_;          ///< 1 for a bullet (BodyDef::bullet)
     std::vector<std::uint8_t> enabled_;         ///< 0 while set_enabled(false): no proxy, asleep
     std::vector<Real> def_mass_;                ///< BodyDef::mass as created (0: from density), for set_type
     std::vector<std::uint32_t> sensor_slots_;   ///< the live sensors, ascending

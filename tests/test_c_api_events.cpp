@@ -291,6 +291,15 @@ TEST_CASE("C API sensors: a ball falling through a trigger box gives one begin a
     bad = sinew_body_def_default();
     bad.allow_sleep = -1;
     CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    bad = sinew_body_def_default();
+    CHECK(bad.is_bullet == 0);
+    bad.is_bullet = 2;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("is_bullet") != std::string::npos);
+    bad.is_bullet = 1;
+    bad.type = SINEW_BODY_STATIC;
+    CHECK(sinew_body_create(w, &bad, &id) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::string(sinew_last_error()).find("dynamic") != std::string::npos);
     CHECK(fingerprint(w) == before);
     REQUIRE(sinew_world_destroy(w) == SINEW_OK);
 }

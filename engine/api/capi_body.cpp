@@ -50,6 +50,7 @@ sinew_body_def sinew_body_def_default(void) {
     d.gravity_scale = 1;
     d.allow_sleep = 1;
     d.is_sensor = 0;
+    d.is_bullet = 0;
     d.user_data = 0;
     return d;
 }
@@ -92,9 +93,14 @@ sinew_status sinew_body_create(sinew_world_id world, const sinew_body_def* def, 
             return invalid(fn, "def->allow_sleep = " + std::to_string(def->allow_sleep) + " must be 0 or 1");
         if (def->is_sensor != 0 && def->is_sensor != 1)
             return invalid(fn, "def->is_sensor = " + std::to_string(def->is_sensor) + " must be 0 or 1");
+        if (def->is_bullet != 0 && def->is_bullet != 1)
+            return invalid(fn, "def->is_bullet = " + std::to_string(def->is_bullet) + " must be 0 or 1");
+        if (def->is_bullet && def->type != SINEW_BODY_DYNAMIC)
+            return invalid(fn, "def->is_bullet = 1 needs a dynamic body (def->type)");
         b.gravity_scale = Real(def->gravity_scale);
         b.allow_sleep = def->allow_sleep != 0;
         b.sensor = def->is_sensor != 0;
+        b.bullet = def->is_bullet != 0;
         b.user_data = def->user_data;
         BodyId id = w->rigid().create_body(b);  // RigidError names the rest; nothing is created then
         *out = {pack_world(world), id.index, id.generation};

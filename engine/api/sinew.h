@@ -185,6 +185,8 @@ typedef struct sinew_body_def {
     int is_sensor;            /* 1: a trigger volume that reports overlaps and touches nothing (no contacts,
                                  not found by queries); its shape must not be a plane or mesh. Any body
                                  type; fixed at creation (default 0). See the sensor events. */
+    int is_bullet;            /* 1: continuous collision against dynamic bodies too (projectiles); dynamic
+                                 bodies only (default 0). Every fast body gets it against static ones. */
     uint64_t user_data;       /* yours, returned by sinew_body_user_data() */
 } sinew_body_def;
 

@@ -388,7 +388,7 @@ private:
     void parse_body(const Node& b, std::size_t index) {
         b.allow_keys({"name", "type", "shape", "position", "rotation", "rotation_deg", "linear_velocity",
                       "angular_velocity", "material", "mass", "linear_damping", "angular_damping", "gravity_scale",
-                      "allow_sleep", "filter", "sensor", "user_data"});
+                      "allow_sleep", "filter", "sensor", "bullet", "user_data"});
         static const std::pair<const char*, BodyType> types[] = {
             {"static", BodyType::Static}, {"kinematic", BodyType::Kinematic}, {"dynamic", BodyType::Dynamic}};
         SceneBody body;
@@ -429,6 +429,10 @@ private:
         d.allow_sleep = read_bool(b, "allow_sleep", d.allow_sleep);
         d.filter = read_filter(b);
         d.sensor = read_bool(b, "sensor", false);
+        d.bullet = read_bool(b, "bullet", false);
+        if (d.bullet && d.type != BodyType::Dynamic)
+            b.get("bullet").fail("only a dynamic body can be a bullet, and body \"" + body.name + "\" is " +
+                                 (d.type == BodyType::Static ? "static" : "kinematic"));
         if (d.sensor && !d.shape.can_be_dynamic())
             shape.fail(std::string("a sensor's shape must be a sphere, box, capsule, hull or compound, and body \"") +
                        body.name + "\"'s is a " + shape_type_name(d.shape.type));

@@ -311,6 +311,7 @@ Json body_json(const RigidSystem& rigid, BodyId id, const std::unordered_map<con
     b["allow_sleep"] = rigid.allow_sleep(id);
     if (const Json f = scene_json::filter_json(rigid.filter(id)); !f.is_null()) b["filter"] = f;
     if (rigid.is_sensor(id)) b["sensor"] = true;
+    if (rigid.is_bullet(id)) b["bullet"] = true;
     if (rigid.user_data(id) != 0) b["user_data"] = rigid.user_data(id);
     return b;
 }
