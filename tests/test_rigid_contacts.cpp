@@ -532,8 +532,9 @@ TEST_CASE("bodies at 100 and 300 m/s stop at a 0.1 m wall under every solver", "
     // demos/scenes/hard-fast.json: a 0.1 m sphere and a 0.2 m cube tumbling at 20 rad/s at 100 m/s, a
     // 0.05 m sphere at 300 m/s, each 5 m from a 0.1 m wall (1.7 and 5 m of travel a step). No centre may
     // pass the wall's near face, and each must reach it: its furthest x within 2 cm of touching (a
-    // sphere's radius, a cube's half side to half diagonal, from the face). Without continuous collision
-    // the Newtonian solver, which detects at candidate poses past the wall, let the cube through.
+    // sphere's radius, a cube's half side to half diagonal, from the face). The Newtonian solver, which
+    // detects at candidate poses past the wall, had stopped the spheres 1.7 m short and where they started
+    // and knocked the cube past the wall's edge, until pairs still apart could close their gap.
     const SceneDesc scene = parse_scene_file(std::string(SINEW_SOURCE_DIR) + "/demos/scenes/hard-fast.json");
     for (RigidSolverKind kind : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Baumgarte,
                                  RigidSolverKind::Newton}) {
