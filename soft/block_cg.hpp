@@ -67,28 +67,41 @@ struct BlockCg {
     static double dot(const Vec3& a, const Vec3& b) { return double(a.dot(b)); }
 
     /// Solves A x = b. `product(d, q)` writes q = A d (filtered rows zero). With `warm`, x holds the
-    /// initial guess (zero at filtered rows), else x is set to 0 first.
+    /// initial guess (zero at filtered rows), else x is set to 0 first. The preconditioner is the block
+    /// Jacobi one the caller wrote into block_inv.
     template <class Product>
     Result solve(Product&& product, const std::vector<Vec3>& b, std::vector<Vec3>& x, Real tolerance,
                  int max_iterations, bool warm) {
+        const auto jacobi = [this](const std::vector<Vec3>& in, std::vector<Vec3>& out) {
+            for (std::size_t i = 0; i < in.size(); ++i) out[i] = precondition(i, in[i]);
+        };
+        return solve(product, jacobi, b, x, tolerance, max_iterations, warm);
+    }
+
+    /// The same with the preconditioner `precondition(r, z)`, which writes z = P r for the whole vector
+    /// (P symmetric positive definite on the unfiltered rows, zero on the filtered ones).
+    template <class Product, class Preconditioner>
+    Result solve(Product&& product, Preconditioner&& precondition_all, const std::vector<Vec3>& b, std::vector<Vec3>& x,
+                 Real tolerance, int max_iterations, bool warm) {
         const std::size_t n = b.size();
         Result out;
+        precondition_all(b, z);
         double bpb = 0;
-        for (std::size_t i = 0; i < n; ++i) bpb += dot(b[i], precondition(i, b[i]));
+        for (std::size_t i = 0; i < n; ++i) bpb += dot(b[i], z[i]);
         if (!(bpb > 0)) {
             for (Vec3& v : x) v.setZero();
             out.converged = true;
             return out;
         }
         if (warm) product(x, q);  // q = A x0
-        double rz = 0;
         for (std::size_t i = 0; i < n; ++i) {
             if (!warm) x[i].setZero();
             d[i].setZero();
             r[i] = warm ? Vec3(b[i] - q[i]) : b[i];
-            z[i] = precondition(i, r[i]);
-            rz += dot(r[i], z[i]);
         }
+        precondition_all(r, z);
+        double rz = 0;
+        for (std::size_t i = 0; i < n; ++i) rz += dot(r[i], z[i]);
         const double tol2 = double(tolerance) * double(tolerance) * bpb;
         Real beta = 0;
         while (rz > tol2 && out.iterations < max_iterations) {
@@ -98,13 +111,13 @@ struct BlockCg {
             for (std::size_t i = 0; i < n; ++i) dad += dot(d[i], q[i]);
             if (!(dad > 0)) break;  // lost definiteness: a guard for NaN input
             const Real alpha = Real(rz / dad);
-            double rz_new = 0;
             for (std::size_t i = 0; i < n; ++i) {
                 x[i] += alpha * d[i];
                 r[i] -= alpha * q[i];
-                z[i] = precondition(i, r[i]);
-                rz_new += dot(r[i], z[i]);
             }
+            precondition_all(r, z);
+            double rz_new = 0;
+            for (std::size_t i = 0; i < n; ++i) rz_new += dot(r[i], z[i]);
             beta = Real(rz_new / rz);
             rz = rz_new;
             ++out.iterations;

@@ -1,11 +1,10 @@
 // A symmetric sparse matrix of 3x3 blocks, one block row per particle, with its pattern built once from
-// the elements that couple particles (the tets of an FEM body): compressed rows, both triangles stored so
+// the elements that couple particles (the linear or quadratic tets of an FEM body): compressed rows, both triangles stored so
 // the product is one pass over the rows. Each element keeps the positions of its blocks in the value
 // array, so assembling adds into fixed places and allocates nothing.
 #pragma once
 
 #include <algorithm>
-#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -22,15 +21,15 @@ struct BlockSparse3 {
 
     std::size_t rows() const { return row_start.empty() ? 0 : row_start.size() - 1; }
 
-    /// The pattern of n rows from elements of 4 particles each (tets: 4 per element), and per element its
-    /// 16 block indices, row-major (a, b) for a, b in 0..3.
-    void build_pattern(std::size_t n, const std::vector<std::uint32_t>& elements,
-                       std::vector<std::array<std::uint32_t, 16>>& element_blocks) {
+    /// The pattern of n rows from elements of `per` particles each (tets: 4, quadratic tets: 10), and per
+    /// element its per² block indices, row-major (a, b) for a, b in 0..per-1, at element_blocks[per² e].
+    void build_pattern(std::size_t n, const std::vector<std::uint32_t>& elements, int per,
+                       std::vector<std::uint32_t>& element_blocks) {
         std::vector<std::vector<std::uint32_t>> adjacent(n);
-        const std::size_t m = elements.size() / 4;
+        const std::size_t P = std::size_t(per), m = elements.size() / P;
         for (std::size_t e = 0; e < m; ++e)
-            for (int a = 0; a < 4; ++a)
-                for (int b = 0; b < 4; ++b) adjacent[elements[4 * e + a]].push_back(elements[4 * e + b]);
+            for (std::size_t a = 0; a < P; ++a)
+                for (std::size_t b = 0; b < P; ++b) adjacent[elements[P * e + a]].push_back(elements[P * e + b]);
         row_start.assign(n + 1, 0);
         col.clear();
         diagonal.assign(n, 0);
@@ -46,14 +45,14 @@ struct BlockSparse3 {
             row_start[i + 1] = std::uint32_t(col.size());
         }
         block.assign(col.size(), Mat3::Zero());
-        element_blocks.resize(m);
+        element_blocks.resize(m * P * P);
         for (std::size_t e = 0; e < m; ++e)
-            for (int a = 0; a < 4; ++a) {
-                const std::uint32_t i = elements[4 * e + a];
-                for (int b = 0; b < 4; ++b) {
-                    const std::uint32_t j = elements[4 * e + b];
+            for (std::size_t a = 0; a < P; ++a) {
+                const std::uint32_t i = elements[P * e + a];
+                for (std::size_t b = 0; b < P; ++b) {
+                    const std::uint32_t j = elements[P * e + b];
                     const auto begin = col.begin() + row_start[i], end = col.begin() + row_start[i + 1];
-                    element_blocks[e][4 * a + b] = std::uint32_t(std::lower_bound(begin, end, j) - col.begin());
+                    element_blocks[(e * P + a) * P + b] = std::uint32_t(std::lower_bound(begin, end, j) - col.begin());
                 }
             }
     }

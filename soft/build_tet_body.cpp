@@ -6,14 +6,15 @@ namespace sinew {
 
 SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base) {
     const char* where = "make_tet_body";
-    check_tet_mesh(mesh.nodes, mesh.tets, where);
+    check_tet_mesh(mesh.nodes, mesh.tets, where, mesh.order);
     builder::check_positive(where, "fem.density", base.fem.density);
     SoftBodyDef d = std::move(base);
     builder::reset_geometry(d);
     d.positions = mesh.nodes;
-    d.masses = lumped_masses(mesh.nodes, mesh.tets, d.fem.density);
+    d.masses = lumped_masses(mesh.nodes, mesh.tets, d.fem.density, mesh.order);
     d.tets = mesh.tets;
-    d.triangles = boundary_triangles(mesh.tets);
+    d.tet_order = mesh.order;
+    d.triangles = boundary_triangles(mesh.tets, mesh.order);
     return d;
 }
 

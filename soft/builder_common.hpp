@@ -59,6 +59,7 @@ inline void reset_geometry(SoftBodyDef& d) {
     d.links.clear();
     d.triangles.clear();
     d.tets.clear();
+    d.tet_order = 1;
     d.rest_positions.clear();
     d.plastic_strain.clear();
 }

@@ -39,15 +39,16 @@ inline Real norm_of(const Strain6& e) {
 }  // namespace
 
 std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const std::vector<std::uint32_t>& tets,
-                                         const FemMaterial& material) {
+                                         const FemMaterial& material, int order) {
     auto s = std::make_unique<FemState>();
-    const std::size_t m = tets.size() / 4;
+    s->order = order == 2 ? 2 : 1;
+    const std::size_t per = std::size_t(s->nodes_per_tet()), m = tets.size() / per;
     s->rest = rest;
     s->tets = tets;
     s->dm_inv.resize(m);
     s->volume.resize(m);
     for (std::size_t e = 0; e < m; ++e) {
-        const std::uint32_t* t = &tets[4 * e];
+        const std::uint32_t* t = &tets[per * e];
         Mat3 dm;
         dm.col(0) = rest[t[1]] - rest[t[0]];
         dm.col(1) = rest[t[2]] - rest[t[0]];
@@ -61,7 +62,8 @@ std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const st
     s->rotation.assign(m, Mat3::Identity());
     s->polar.assign(m, Quat::Identity());
     s->plastic.assign(m, Strain6{});
-    s->stiffness.build_pattern(rest.size(), tets, s->element_blocks);
+    s->stiffness.build_pattern(rest.size(), tets, s->nodes_per_tet(), s->element_blocks);
+    if (s->order == 2) quadratic_rest_stiffness(*s);
     s->scratch.assign(rest.size(), Vec3::Zero());
     return s;
 }
@@ -84,7 +86,9 @@ void set_fem_material(SoftBody& b, const FemMaterial& m) {
     FemState& s = *b.fem;
     // The masses first: the only step that allocates (and may throw) runs before anything changes.
     std::vector<Real> mass;
-    if (m.density != b.def.fem.density) mass = lumped_masses(s.rest, s.tets, m.density);
+    if (m.plastic() && s.order != 1)
+        throw SoftError("set_fem_material: plasticity needs linear tets (order 1); this body's tets are quadratic");
+    if (m.density != b.def.fem.density) mass = lumped_masses(s.rest, s.tets, m.density, s.order);
     b.def.fem = m;
     s.lambda = m.lame_lambda();
     s.mu = m.lame_mu();
@@ -97,7 +101,7 @@ void set_fem_material(SoftBody& b, const FemMaterial& m) {
 }
 
 void fem_update_plasticity(FemState& s, const std::vector<Vec3>& x, const FemMaterial& mat, Real h) {
-    if (!mat.plastic()) return;
+    if (!mat.plastic() || s.order != 1) return;  // quadratic tets refuse plasticity (soft_body_validate.cpp)
     const Real rate = std::min(Real(1), h * mat.creep);
     const std::size_t m = s.size();
     for (std::size_t e = 0; e < m; ++e) {
@@ -114,6 +118,7 @@ void fem_update_plasticity(FemState& s, const std::vector<Vec3>& x, const FemMat
 }
 
 double fem_elastic_energy(const FemState& s, const std::vector<Vec3>& x) {
+    if (s.order == 2) return quadratic_energy(s, x);
     double energy = 0;
     for (std::size_t e = 0; e < s.size(); ++e) {
         Strain6 eps = strain_of(s.rotation[e].transpose() * deformation_gradient(s, e, x));

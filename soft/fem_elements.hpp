@@ -11,6 +11,10 @@
 //   the product and the rotations, and without storing K_e.
 //   The warped stiffness K' = Σ R_e K_e R_eᵀ, whose blocks are the same expression with the rotated
 //   gradients R_e g_a, is assembled into a BlockSparse3 for implicit Euler.
+// Quadratic (10-node) tets (soft/fem_quadratic.cpp) cure the locking of linear tets in bending: their
+//   strain varies linearly inside the element, so K_e (30x30, by 4-point quadrature, exact for it) is
+//   computed once and kept, 55 blocks per element; R_e comes from the element's mean deformation
+//   gradient and f_e = -R_e K_e (R_eᵀ x_e - x⁰_e) is the product itself.
 // The element data are plain arrays built once; a step allocates nothing.
 #pragma once
 
@@ -29,8 +33,10 @@ struct SoftBody;
 struct FemState {
     // Rest data (from the positions at creation).
     std::vector<Vec3> rest;           ///< the rest shape, per particle
-    std::vector<std::uint32_t> tets;  ///< 4 per element
-    std::vector<Mat3> dm_inv;         ///< D_m⁻¹: its rows are g_1, g_2, g_3
+    int order = 1;                    ///< 1: linear tets; 2: quadratic tets (soft/tet_mesh.hpp)
+    std::vector<std::uint32_t> tets;  ///< nodes_per_tet() per element, corners first
+    std::vector<Mat3> dm_inv;         ///< D_m⁻¹ of the corners: its rows are g_1, g_2, g_3
+    std::vector<Mat3> quad_stiffness;  ///< quadratic tets: the rest blocks K_ac, a <= c, 55 per element
     std::vector<Real> volume;         ///< rest volume (m³)
     Real lambda = 0, mu = 0;          ///< Lamé parameters of the material
     // Per step.
@@ -46,18 +52,21 @@ struct FemState {
     bool rotations_current = false;   ///< the rotations are those of x_n (begin_step took them for plasticity)
     // The warped stiffness K' and the blocks of each element in it.
     BlockSparse3 stiffness;
-    std::vector<std::array<std::uint32_t, 16>> element_blocks;
+    std::vector<std::uint32_t> element_blocks;  ///< per element its nodes_per_tet()² block indices in K'
+
     bool assembled = false;
     // Implicit Euler's product q += k_scale K' u + m_scale M u (set by the model's prepare step).
     Real k_scale = 0, m_scale = 0;
     std::vector<Vec3> scratch;  ///< n vectors
 
     std::size_t size() const { return volume.size(); }
+    int nodes_per_tet() const { return order == 2 ? 10 : 4; }
 };
 
-/// Rest data of a body's elements from its rest positions (validated by the caller: positive volumes).
+/// Rest data of a body's elements of `order` from its rest positions (validated by the caller: positive
+/// volumes, and straight edges for quadratic tets).
 std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const std::vector<std::uint32_t>& tets,
-                                         const FemMaterial& material);
+                                         const FemMaterial& material, int order = 1);
 
 /// Changes an FEM body's material: Lamé parameters, damping, plasticity, rotation; a new density gives its
 /// particles new lumped masses (pinned and attached ones stay kinematic); turning plasticity off clears the
@@ -92,5 +101,19 @@ double fem_elastic_energy(const FemState& s, const std::vector<Vec3>& x);
 /// the column of the smallest singular value (the rotation closest to F). The polar iteration for
 /// det F > 0 runs in the batched element loop (soft/fem_kernel.cpp).
 Mat3 inverted_rotation(const Mat3& F);
+
+// Quadratic tets (soft/fem_quadratic.cpp), called by the element loop and make_fem_state.
+/// The rest blocks K_ac (a <= c) of every element from dm_inv, volume, lambda and mu.
+void quadratic_rest_stiffness(FemState& s);
+/// The mean deformation gradient (1/V) ∫ ∂x/∂X dV of element e: Σ over the edges (i, j) of x_ij (g_i + g_j)ᵀ
+/// (the corners' shape functions integrate to zero gradient).
+Mat3 quadratic_mean_gradient(const FemState& s, std::size_t e, const std::vector<Vec3>& x);
+/// f_a -= R Σ_c K_ac (Rᵀ (x_c + β v_c) - x⁰_c) for element e with rotation R (v may be null when beta == 0).
+void quadratic_add_force(const FemState& s, std::size_t e, const Mat3& R, const std::vector<Vec3>& x,
+                         const std::vector<Vec3>* v, Real beta, std::vector<Vec3>& f);
+/// K' += R K_e Rᵀ for element e.
+void quadratic_assemble(FemState& s, std::size_t e, const Mat3& R);
+/// ½ Σ_e uᵀ K_e u with u = R_eᵀ x - x⁰ and the current rotations (J).
+double quadratic_energy(const FemState& s, const std::vector<Vec3>& x);
 
 }  // namespace sinew

@@ -8,7 +8,9 @@
 // vector is ω = Σ r_i × f_i / |Σ r_i · f_i| as the normalised first-order quaternion (1, ω/2) ⊗ q: a
 // rotation by 2 atan(|ω|/2) instead of the paper's |ω|, equal to second order, shorter for large turns
 // (so it never overshoots) and free of trigonometry, which keeps the lanes in SIMD registers. Elements with
-// det F <= 0 take Nesme's flip by SVD, one at a time (inverted_rotation()).
+// det F <= 0 take Nesme's flip by SVD, one at a time (inverted_rotation()). Quadratic tets share the
+// rotation lanes (F their mean deformation gradient) and take their forces and blocks one element at a
+// time (soft/fem_quadratic.cpp).
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -40,19 +42,26 @@ void gather(const FemState& s, const std::vector<Vec3>& x, std::size_t first, Ba
     for (int l = 0; l < L; ++l) {
         Mat3 ds = Mat3::Identity(), di = Mat3::Identity();
         Real v = 0;
+        bool mean = false;  // quadratic tets: F is the mean deformation gradient
         if (l < b.count) {
             const std::size_t e = first + std::size_t(l);
-            const std::uint32_t* t = &s.tets[4 * e];
-            ds.col(0) = x[t[1]] - x[t[0]];
-            ds.col(1) = x[t[2]] - x[t[0]];
-            ds.col(2) = x[t[3]] - x[t[0]];
             di = s.dm_inv[e];
             v = s.volume[e];
+            if (s.order == 2) {
+                ds = quadratic_mean_gradient(s, e, x);
+                mean = true;
+            } else {
+                const std::uint32_t* t = &s.tets[4 * e];
+                ds.col(0) = x[t[1]] - x[t[0]];
+                ds.col(1) = x[t[2]] - x[t[0]];
+                ds.col(2) = x[t[3]] - x[t[0]];
+            }
         }
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) b.Di[3 * i + j][l] = di(i, j);
         for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) b.F[3 * i + j][l] = ds(i, 0) * di(0, j) + ds(i, 1) * di(1, j) + ds(i, 2) * di(2, j);
+            for (int j = 0; j < 3; ++j)
+                b.F[3 * i + j][l] = mean ? ds(i, j) : ds(i, 0) * di(0, j) + ds(i, 1) * di(1, j) + ds(i, 2) * di(2, j);
         b.V[l] = v;
     }
     for (int l = 0; l < L; ++l) {
@@ -284,7 +293,7 @@ void stiffness_lanes(FemState& s, const Batch& b) {
             }
     Mat3* blocks = s.stiffness.block.data();
     for (int l = 0; l < b.count; ++l) {
-        const std::array<std::uint32_t, 16>& slot = s.element_blocks[b.first + std::size_t(l)];
+        const std::uint32_t* slot = &s.element_blocks[16 * (b.first + std::size_t(l))];
         k = 0;
         for (int a = 0; a < 4; ++a)
             for (int c = a; c < 4; ++c, ++k) {
@@ -322,6 +331,15 @@ void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>
                     break;
             }
             for (int l = 0; l < b.count; ++l) s.rotation[first + std::size_t(l)] = lane_matrix(b.R, l);
+        }
+        if (s.order == 2) {
+            for (int l = 0; l < b.count; ++l) {
+                const std::size_t e = first + std::size_t(l);
+                const Mat3 R = lane_matrix(b.R, l);
+                if (f) quadratic_add_force(s, e, R, x, v, beta, *f);
+                if (assemble) quadratic_assemble(s, e, R);
+            }
+            continue;
         }
         if (f) force_lanes(s, b, v, beta, *f);
         if (assemble) stiffness_lanes(s, b);

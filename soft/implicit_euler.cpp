@@ -48,6 +48,7 @@
 #include <memory>
 #include <string>
 
+#include "soft/fem_elements.hpp"
 #include "soft/force_models.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
@@ -104,6 +105,16 @@ void conserve_momentum(const SoftBody& b, ImplicitEulerCache& c) {
     for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) mass += r.share;
     const Vec3 delta = -mass.inverse() * net;
     for (Vec3& v : c.dv) v += delta;
+}
+
+// The rest-factor preconditioner of an FEM body: A₀ = diag(m (1 + hλ drag) + hλ α m) + (h²λ² + hλ β) K₀
+// (the FEM model's scales, soft/fem_forces.cpp), pinned rows identity; refactored only when these change.
+bool prepare_rest_factor(const SoftBody& b, ImplicitEulerCache& c) {
+    const FemState& s = *b.fem;
+    if (!c.rest_factor) c.rest_factor = std::make_shared<FemRestFactor>();
+    c.factor_diagonal.resize(c.mass.size());
+    for (std::size_t i = 0; i < c.mass.size(); ++i) c.factor_diagonal[i] = c.mass[i] + s.m_scale * b.p.mass[i];
+    return c.rest_factor->prepare(s, c.factor_diagonal, s.k_scale, c.pinned);
 }
 
 }  // namespace
@@ -249,7 +260,18 @@ void step_implicit_euler(SoftBody& b, Real h) {
         for (std::uint32_t i : c.pinned) c.dv[i].setZero();
         for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) c.dv[r.particle] -= r.normal.dot(c.dv[r.particle]) * r.normal;
     }
-    const BlockCg::Result res = c.cg.solve(filtered_product, c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
+    BlockCg::Result res;
+    if (b.fem && b.def.preconditioner == SoftPreconditioner::RestFactor && prepare_rest_factor(b, c)) {
+        // P = S R_N A₀⁻¹ R_Nᵀ S (soft/fem_rest_factor.hpp), filtered as the system is.
+        const auto rest_factor = [&](const std::vector<Vec3>& r, std::vector<Vec3>& z) {
+            c.rest_factor->apply(r, z);
+            for (const std::uint32_t i : c.pinned) z[i].setZero();
+            for (const ImplicitEulerCache::ContactRow& row : c.contact_rows) z[row.particle] -= row.normal.dot(z[row.particle]) * row.normal;
+        };
+        res = c.cg.solve(filtered_product, rest_factor, c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
+    } else {
+        res = c.cg.solve(filtered_product, c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
+    }
     for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) c.dv[r.particle] += r.dv_normal;
     if (c.pinned.empty() && c.contact_rows.empty() && !res.converged) conserve_momentum(b, c);
     // The impulse each constraint applied, n · (A Δv - rhs): negative means it held the particle down

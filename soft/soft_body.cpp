@@ -42,6 +42,25 @@ const char* soft_method_name(SoftMethod m) {
     return i >= 0 && i < static_cast<int>(SoftMethod::Count) ? kMethodNames[i] : "unknown";
 }
 
+namespace {
+constexpr const char* kPreconditionerNames[] = {"block-jacobi", "rest-factor"};
+static_assert(sizeof(kPreconditionerNames) / sizeof(kPreconditionerNames[0]) == static_cast<int>(SoftPreconditioner::Count), "");
+}  // namespace
+
+const char* soft_preconditioner_name(SoftPreconditioner p) {
+    const int i = static_cast<int>(p);
+    return i >= 0 && i < static_cast<int>(SoftPreconditioner::Count) ? kPreconditionerNames[i] : "unknown";
+}
+
+bool parse_soft_preconditioner(const std::string& text, SoftPreconditioner& out) {
+    for (int i = 0; i < static_cast<int>(SoftPreconditioner::Count); ++i)
+        if (text == kPreconditionerNames[i]) {
+            out = static_cast<SoftPreconditioner>(i);
+            return true;
+        }
+    return false;
+}
+
 bool parse_soft_method(const char* text, SoftMethod& out) {
     for (int i = 0; i < static_cast<int>(SoftMethod::Count); ++i)
         if (std::strcmp(text, kMethodNames[i]) == 0) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "engine/core/aabb.hpp"
@@ -82,6 +83,16 @@ struct Attachment {
     bool frame_valid = false;         ///< false once the target is gone: the particle stays where it is
 };
 
+/// CG's preconditioner in implicit Euler (SoftBodyDef::preconditioner).
+enum class SoftPreconditioner : std::uint8_t {
+    BlockJacobi,  ///< each particle's 3x3 diagonal block, inverted (any body)
+    RestFactor,   ///< FEM bodies: the rest shape's system factored once, turned with the nodes
+    Count
+};
+const char* soft_preconditioner_name(SoftPreconditioner p);
+/// Parses "block-jacobi" or "rest-factor"; false if unknown.
+bool parse_soft_preconditioner(const std::string& text, SoftPreconditioner& out);
+
 struct SoftBodyDef {
     SoftMethod method = SoftMethod::Verlet;
     // geometry (builders in soft/soft_builders.hpp fill these)
@@ -89,10 +100,14 @@ struct SoftBodyDef {
     std::vector<Real> masses;               ///< kg per particle (> 0), same size as positions
     std::vector<Link> links;
     std::vector<std::uint32_t> triangles;   ///< 3 per triangle, counter-clockwise seen from outside
-    /// Tetrahedral FEM (soft/tet_mesh.hpp): 4 particles per tet, positively oriented, the positions the
+    /// Tetrahedral FEM (soft/tet_mesh.hpp): 4 (or 10, see tet_order) particles per tet, positively oriented, the positions the
     /// rest shape. A body with tets is an FEM body: its elements are a force model of the force-based
     /// methods (explicit, semi-implicit, implicit); `triangles` should be its boundary (the builder sets it).
     std::vector<std::uint32_t> tets;
+    /// FEM: 1 for linear tets (4 particles each), 2 for quadratic tets (10 each: the corners, then the
+    /// midpoints of the edges (0 1) (1 2) (0 2) (0 3) (1 3) (2 3); soft/tet_mesh.hpp), which bend without
+    /// locking. Plasticity needs order 1.
+    int tet_order = 1;
     /// FEM: the rest shape, one per particle; empty = `positions` (a saved, deformed body gives both).
     std::vector<Vec3> rest_positions;
     /// FEM: each tet's plastic strain to start from; empty = none (a saved plastic body gives it).
@@ -107,6 +122,9 @@ struct SoftBodyDef {
     Real isotropic_blend = 0;   ///< implicit: Volino's blend, 0 = anisotropic spring Jacobian, 1 = isotropic
     Real implicit_lambda = 1;   ///< implicit: 1 = backward Euler, 0.5 = implicit midpoint (Volino's λ)
     bool long_range_attachments = false;  ///< add LRA constraints to the pins (any method)
+    /// implicit FEM bodies: CG's preconditioner. RestFactor factors the rest shape's system once and turns
+    /// it with the nodes (soft/fem_rest_factor.hpp): for stiff solids, where block Jacobi runs to its cap.
+    SoftPreconditioner preconditioner = SoftPreconditioner::BlockJacobi;
 
     // material
     Real drag = 0;              ///< velocity damping (1/s): v *= 1/(1 + h drag); Verlet uses it as k_d = h drag

@@ -67,6 +67,11 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (d.iterations < 1 || d.iterations > 10000)
         fail("iterations must be in [1, 10000], got " + std::to_string(d.iterations));
     if (!(d.cg_tolerance > 0 && d.cg_tolerance < 1)) fail("cg_tolerance must be in (0, 1), got " + to_text(d.cg_tolerance));
+    const int preconditioner = static_cast<int>(d.preconditioner);
+    if (preconditioner < 0 || preconditioner >= static_cast<int>(SoftPreconditioner::Count))
+        fail("preconditioner = " + std::to_string(preconditioner) + " is not a preconditioner");
+    if (d.preconditioner == SoftPreconditioner::RestFactor && (d.tets.empty() || d.method != SoftMethod::ImplicitEuler))
+        fail("preconditioner rest-factor is for FEM bodies (tets) under the implicit method");
     require_range(d.isotropic_blend, 0, 1, "isotropic_blend");
     require_range(d.implicit_lambda, Real(0.5), 1, "implicit_lambda");
     require_range(d.drag, 0, kRealMax, "drag");
@@ -84,9 +89,14 @@ void validate_soft_body_def(const SoftBodyDef& d) {
         if (!bad.empty()) fail(bad);
         if (!d.rest_positions.empty() && d.rest_positions.size() != n)
             fail("rest_positions has " + std::to_string(d.rest_positions.size()) + " entries for " + std::to_string(n) + " positions");
-        check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "soft body: tets");
-        if (!d.plastic_strain.empty() && d.plastic_strain.size() != d.tets.size() / 4)
-            fail("plastic_strain has " + std::to_string(d.plastic_strain.size()) + " entries for " + std::to_string(d.tets.size() / 4) + " tets");
+        if (d.tet_order != 1 && d.tet_order != 2)
+            fail("tet_order = " + std::to_string(d.tet_order) + " must be 1 (linear tets) or 2 (quadratic tets)");
+        if (d.tet_order == 2 && d.fem.plastic())
+            fail("plasticity needs linear tets (tet_order 1): a quadratic tet's strain varies inside it");
+        check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "soft body: tets", d.tet_order);
+        const std::size_t count = d.tets.size() / std::size_t(tet_nodes(d.tet_order));
+        if (!d.plastic_strain.empty() && d.plastic_strain.size() != count)
+            fail("plastic_strain has " + std::to_string(d.plastic_strain.size()) + " entries for " + std::to_string(count) + " tets");
         for (std::size_t e = 0; e < d.plastic_strain.size(); ++e)
             for (const Real x : d.plastic_strain[e])
                 if (!std::isfinite(x)) fail(at("plastic_strain", e) + " must be finite");

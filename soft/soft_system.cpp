@@ -44,7 +44,7 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     b.links = std::move(def.links);
     if (!def.tets.empty()) {
         // FEM: the rest shape is the positions given; the boundary is the surface unless the caller gave one.
-        b.fem = make_fem_state(def.rest_positions.empty() ? b.p.x : def.rest_positions, def.tets, def.fem);
+        b.fem = make_fem_state(def.rest_positions.empty() ? b.p.x : def.rest_positions, def.tets, def.fem, def.tet_order);
         if (!def.plastic_strain.empty()) b.fem->plastic = def.plastic_strain;
         if (!def.rest_positions.empty()) {
             // A deformed body (a saved one): its polar rotations start converged, as its steps had left them.
@@ -53,7 +53,7 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
             fem_update_rotations(*b.fem, b.p.x, def.fem.rotation);
             b.fem->polar_iterations = cap;
         }
-        if (def.triangles.empty()) def.triangles = boundary_triangles(def.tets);
+        if (def.triangles.empty()) def.triangles = boundary_triangles(def.tets, def.tet_order);
         def.tets = {};
         def.rest_positions = {};
         def.plastic_strain = {};

@@ -10,10 +10,12 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "engine/core/math.hpp"
 #include "soft/block_cg.hpp"
+#include "soft/fem_rest_factor.hpp"
 
 namespace sinew {
 
@@ -59,6 +61,10 @@ struct ImplicitEulerCache {
     /// The CG scratch and its block-Jacobi preconditioner (each particle's 3x3 diagonal block, inverted;
     /// all zero for pinned particles: Baraff-Witkin's filter S).
     BlockCg cg;
+    /// FEM bodies under SoftPreconditioner::RestFactor: the factored rest system, and the diagonal it was
+    /// built with (mass, drag and mass damping).
+    std::shared_ptr<FemRestFactor> rest_factor;
+    std::vector<Real> factor_diagonal;
 
     // Statistics of the last step (benchmarks and tests read them).
     int cg_iterations = 0;      ///< CG iterations used

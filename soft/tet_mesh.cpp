@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <unordered_map>
 
 #include "engine/core/format.hpp"
 #include "soft/soft_body.hpp"
@@ -51,7 +52,41 @@ std::string tet_text(const std::vector<std::uint32_t>& tets, std::size_t e) {
            " " + std::to_string(tets[4 * e + 2]) + " " + std::to_string(tets[4 * e + 3]) + ")";
 }
 
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+    return (std::uint64_t(std::min(a, b)) << 32) | std::uint64_t(std::max(a, b));
+}
+
 }  // namespace
+
+std::vector<std::uint32_t> corner_tets(const std::vector<std::uint32_t>& tets, int order) {
+    if (order != 2) return tets;
+    std::vector<std::uint32_t> out;
+    out.reserve(tets.size() / 10 * 4);
+    for (std::size_t e = 0; e < tets.size() / 10; ++e) out.insert(out.end(), &tets[10 * e], &tets[10 * e + 4]);
+    return out;
+}
+
+TetMesh make_quadratic(const TetMesh& linear) {
+    if (linear.order != 1) throw SoftError("make_quadratic: the mesh is already of order " + std::to_string(linear.order));
+    TetMesh q;
+    q.order = 2;
+    q.nodes = linear.nodes;
+    const std::size_t m = linear.tet_count();
+    q.tets.reserve(10 * m);
+    std::unordered_map<std::uint64_t, std::uint32_t> mid;
+    mid.reserve(7 * m / 4 + 16);
+    for (std::size_t e = 0; e < m; ++e) {
+        const std::uint32_t* t = &linear.tets[4 * e];
+        q.tets.insert(q.tets.end(), t, t + 4);
+        for (const auto& edge : kTetEdges) {
+            const std::uint32_t a = t[edge[0]], b = t[edge[1]];
+            const auto found = mid.emplace(edge_key(a, b), std::uint32_t(q.nodes.size()));
+            if (found.second) q.nodes.push_back(Real(0.5) * (linear.nodes[a] + linear.nodes[b]));
+            q.tets.push_back(found.first->second);
+        }
+    }
+    return q;
+}
 
 TetMesh make_tet_box(const Vec3& min_corner, const Vec3& size, int nx, int ny, int nz, HexSplit split) {
     const char* where = "make_tet_box";
@@ -104,30 +139,69 @@ TetMesh make_tet_box(const Vec3& min_corner, const Vec3& size, int nx, int ny, i
     return m;
 }
 
-std::vector<std::uint32_t> boundary_triangles(const std::vector<std::uint32_t>& tets) {
-    const std::vector<Face> faces = sorted_faces(tets);
+std::vector<std::uint32_t> boundary_triangles(const std::vector<std::uint32_t>& tets, int order) {
+    const std::vector<Face> faces = sorted_faces(order == 2 ? corner_tets(tets, 2) : tets);
+    std::unordered_map<std::uint64_t, std::uint32_t> mid;  // quadratic tets: the node on each edge
+    if (order == 2)
+        for (std::size_t e = 0; e < tets.size() / 10; ++e)
+            for (int k = 0; k < 6; ++k) mid[edge_key(tets[10 * e + kTetEdges[k][0]], tets[10 * e + kTetEdges[k][1]])] = tets[10 * e + 4 + k];
     std::vector<std::uint32_t> out;
     for (std::size_t i = 0; i < faces.size();) {
         std::size_t j = i + 1;
         while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-        if (j - i == 1) out.insert(out.end(), faces[i].outward.begin(), faces[i].outward.end());
+        if (j - i == 1) {
+            const auto& f = faces[i].outward;
+            if (order == 2) {
+                // The face cut at its edge nodes: three corner triangles and the middle one, all outward.
+                const std::uint32_t ab = mid.at(edge_key(f[0], f[1])), bc = mid.at(edge_key(f[1], f[2])),
+                                    ca = mid.at(edge_key(f[2], f[0]));
+                out.insert(out.end(), {f[0], ab, ca, ab, f[1], bc, ca, bc, f[2], ab, bc, ca});
+            } else {
+                out.insert(out.end(), f.begin(), f.end());
+            }
+        }
         i = j;
     }
     return out;
 }
 
-void check_tet_mesh(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& tets, const std::string& where) {
+void check_tet_mesh(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& all_tets, const std::string& where,
+                    int order) {
     const std::size_t n = nodes.size();
-    if (tets.empty()) fail(where, "the mesh has no tetrahedra");
-    if (tets.size() % 4 != 0) fail(where, "tets has " + std::to_string(tets.size()) + " indices, not a multiple of 4");
+    if (order != 1 && order != 2) fail(where, "order = " + std::to_string(order) + " must be 1 (linear tets) or 2 (quadratic)");
+    const std::size_t per = std::size_t(tet_nodes(order));
+    if (all_tets.empty()) fail(where, "the mesh has no tetrahedra");
+    if (all_tets.size() % per != 0)
+        fail(where, "tets has " + std::to_string(all_tets.size()) + " indices, not a multiple of " + std::to_string(per) +
+                        (order == 2 ? " (quadratic tets have 10 nodes)" : ""));
     for (std::size_t i = 0; i < n; ++i)
         if (!is_finite(nodes[i])) fail(where, "node " + std::to_string(i) + " must be finite, got " + to_text(nodes[i]));
-    const std::size_t m = tets.size() / 4;
+    const std::size_t m = all_tets.size() / per;
     for (std::size_t e = 0; e < m; ++e)
-        for (int c = 0; c < 4; ++c)
-            if (tets[4 * e + c] >= n)
-                fail(where, "tet " + std::to_string(e) + " refers to node " + std::to_string(tets[4 * e + c]) + " (the mesh has " +
-                                std::to_string(n) + " nodes)");
+        for (std::size_t c = 0; c < per; ++c)
+            if (all_tets[per * e + c] >= n)
+                fail(where, "tet " + std::to_string(e) + " refers to node " + std::to_string(all_tets[per * e + c]) +
+                                " (the mesh has " + std::to_string(n) + " nodes)");
+    // The corners carry the geometry: volumes, faces and the boundary are theirs.
+    const std::vector<std::uint32_t> tets = corner_tets(all_tets, order);
+    if (order == 2) {
+        std::unordered_map<std::uint64_t, std::uint32_t> mid;
+        for (std::size_t e = 0; e < m; ++e)
+            for (int k = 0; k < 6; ++k) {
+                const std::uint32_t a = all_tets[10 * e + kTetEdges[k][0]], b = all_tets[10 * e + kTetEdges[k][1]];
+                const std::uint32_t c = all_tets[10 * e + 4 + k];
+                const Vec3 centre = Real(0.5) * (nodes[a] + nodes[b]);
+                if (!((nodes[c] - centre).norm() <= Real(1e-4) * (nodes[b] - nodes[a]).norm()))
+                    fail(where, "node " + std::to_string(c) + " of tet " + std::to_string(e) + " is not at the midpoint of its edge (" +
+                                    std::to_string(a) + ", " + std::to_string(b) + "): quadratic tets must have straight edges, "
+                                    "their edge nodes in the order (0 1) (1 2) (0 2) (0 3) (1 3) (2 3)");
+                const auto found = mid.emplace(edge_key(a, b), c);
+                if (found.first->second != c)
+                    fail(where, "the edge (" + std::to_string(a) + ", " + std::to_string(b) + ") has node " +
+                                    std::to_string(found.first->second) + " in one tet and node " + std::to_string(c) + " in tet " +
+                                    std::to_string(e));
+            }
+    }
     for (std::size_t e = 0; e < m; ++e) {
         const Vec3 &a = nodes[tets[4 * e]], &b = nodes[tets[4 * e + 1]], &c = nodes[tets[4 * e + 2]], &d = nodes[tets[4 * e + 3]];
         const Real v = tet_volume(a, b, c, d);
@@ -156,7 +230,7 @@ void check_tet_mesh(const std::vector<Vec3>& nodes, const std::vector<std::uint3
                             std::to_string(std::max(keyed[i - 1].second, keyed[i].second)) + " are at the same place " +
                             to_text(nodes[keyed[i].second]));
     std::vector<char> used(n, 0);
-    for (const std::uint32_t i : tets) used[i] = 1;
+    for (const std::uint32_t i : all_tets) used[i] = 1;
     for (std::size_t i = 0; i < n; ++i)
         if (!used[i]) fail(where, "node " + std::to_string(i) + " belongs to no tet");
     // Faces: shared by at most two tets; the boundary a closed 2-manifold (each edge on two boundary faces).
@@ -187,12 +261,17 @@ void check_tet_mesh(const std::vector<Vec3>& nodes, const std::vector<std::uint3
     }
 }
 
-std::vector<Real> lumped_masses(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& tets, Real density) {
+std::vector<Real> lumped_masses(const std::vector<Vec3>& nodes, const std::vector<std::uint32_t>& tets, Real density,
+                                int order) {
     std::vector<double> m(nodes.size(), 0.0);
-    for (std::size_t e = 0; e < tets.size() / 4; ++e) {
-        const std::uint32_t* t = &tets[4 * e];
-        const double q = 0.25 * double(density) * double(std::abs(tet_volume(nodes[t[0]], nodes[t[1]], nodes[t[2]], nodes[t[3]])));
-        for (int c = 0; c < 4; ++c) m[t[c]] += q;
+    const std::size_t per = std::size_t(tet_nodes(order));
+    for (std::size_t e = 0; e < tets.size() / per; ++e) {
+        const std::uint32_t* t = &tets[per * e];
+        const double me = double(density) * double(std::abs(tet_volume(nodes[t[0]], nodes[t[1]], nodes[t[2]], nodes[t[3]])));
+        // HRZ for quadratic tets: ∫N_corner² = V/70 and ∫N_edge² = 8V/105, scaled to sum to ρ V.
+        const double corner = order == 2 ? me / 36 : me / 4, edge = me * 4 / 27;
+        for (int c = 0; c < 4; ++c) m[t[c]] += corner;
+        for (std::size_t c = 4; c < per; ++c) m[t[c]] += edge;
     }
     return std::vector<Real>(m.begin(), m.end());
 }

@@ -604,7 +604,10 @@ sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fe
         if (!bad.empty()) return invalid(fn, bad);
         SoftBody& b = t.world->soft().body(t.body);
         if (!b.fem) return invalid(fn, "the soft body has no tets (it is not an FEM solid)");
-        set_fem_material(b, fem_material(*material));  // checked above: does not throw
+        const FemMaterial m = fem_material(*material);
+        if (m.plastic() && b.fem->order != 1)
+            return invalid(fn, "material->creep and max_plastic > 0 ask for plasticity, which needs linear tets; this body's are quadratic");
+        set_fem_material(b, m);  // checked above: does not throw
         t.world->soft().wake(t.body);
         return SINEW_OK;
     });

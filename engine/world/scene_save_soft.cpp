@@ -56,7 +56,8 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
                                 {"cg_tolerance", number(d.cg_tolerance)},
                                 {"isotropic_blend", number(d.isotropic_blend)},
                                 {"implicit_lambda", number(d.implicit_lambda)},
-                                {"long_range_attachments", d.long_range_attachments}});
+                                {"long_range_attachments", d.long_range_attachments},
+                                {"preconditioner", soft_preconditioner_name(d.preconditioner)}});
     j["material"] = Json::object({{"drag", number(d.drag)},
                                   {"pressure", number(d.pressure)},
                                   {"friction", number(d.friction)},
@@ -101,8 +102,8 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
     if (b.fem) {
         const FemState& s = *b.fem;
         Json tets = Json::array(), rest = Json::array(), plastic = Json::array();
-        for (std::size_t t = 0; t + 3 < s.tets.size(); t += 4)
-            tets.push_back(Json::array({s.tets[t], s.tets[t + 1], s.tets[t + 2], s.tets[t + 3]}));
+        const std::size_t per = std::size_t(s.nodes_per_tet());  // quadratic tets: 10 (the loader reads the order from it)
+        for (std::size_t t = 0; t + per <= s.tets.size(); t += per) tets.push_back(Json(std::vector<std::uint32_t>(&s.tets[t], &s.tets[t] + per)));
         for (const Vec3& x : s.rest) rest.push_back(vec3(x));
         bool plastic_any = false;
         for (const Strain6& e : s.plastic) {

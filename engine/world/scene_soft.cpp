@@ -28,7 +28,7 @@ LinkMaterial parse_link_material(const Node& body) {
 void parse_solver(const Node& body, SoftBodyDef& d) {
     std::optional<Node> n = body.find("solver");
     if (!n) return;
-    n->allow_keys({"iterations", "cg_tolerance", "isotropic_blend", "implicit_lambda", "long_range_attachments"});
+    n->allow_keys({"iterations", "cg_tolerance", "isotropic_blend", "implicit_lambda", "long_range_attachments", "preconditioner"});
     d.iterations = read_int(*n, "iterations", d.iterations, 1, 10000);
     d.cg_tolerance = read_real(*n, "cg_tolerance", d.cg_tolerance, Range::Positive);
     if (d.cg_tolerance >= 1) n->get("cg_tolerance").fail("cg_tolerance must be < 1");
@@ -37,6 +37,10 @@ void parse_solver(const Node& body, SoftBodyDef& d) {
     if (d.implicit_lambda < Real(0.5))
         n->get("implicit_lambda").fail("implicit_lambda must be in [0.5, 1] (0.5 = implicit midpoint, 1 = backward Euler)");
     d.long_range_attachments = read_bool(*n, "long_range_attachments", d.long_range_attachments);
+    if (auto p = n->find("preconditioner")) {
+        if (!p->json().is_string() || !parse_soft_preconditioner(p->json().get<std::string>(), d.preconditioner))
+            p->fail("preconditioner must be \"block-jacobi\" or \"rest-factor\", got " + describe(p->json()));
+    }
 }
 
 void parse_material(const Node& body, SoftBodyDef& d) {
@@ -163,12 +167,14 @@ void build_geometry(const Node& b, const std::string& builder, const SoftBodyDef
         const Vec3 min_corner = b.find("center") ? Vec3(b.get("center").vec3() - size / 2) : b.get("min_corner").vec3();
         const int split = read_int(b, "split", 5, 5, 6);
         out.tet_box = {min_corner, size, {nx, ny, nz}, split};
-        out.def = make_tet_body(make_tet_box(min_corner, size, nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six), base);
+        TetMesh mesh = make_tet_box(min_corner, size, nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six);
+        out.def = make_tet_body(read_int(b, "order", 1, 1, 2) == 2 ? make_quadratic(mesh) : mesh, base);
     } else if (builder == "tet-mesh") {
         TetMesh mesh = load_tet_file(b, b.get("file"));
         const Real scale = read_real(b, "scale", 1, Range::Positive);
         const Vec3 offset = read_vec3(b, "position", Vec3::Zero());
         for (Vec3& v : mesh.nodes) v = v * scale + offset;
+        if (read_int(b, "order", 1, 1, 2) == 2 && mesh.order == 1) mesh = make_quadratic(mesh);
         out.def = make_tet_body(mesh, base);
     } else if (builder == "explicit") {
         build_explicit(b, base, out);
@@ -252,11 +258,16 @@ void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out) 
     }
     if (auto tets = b.find("tets")) {
         const std::size_t count = tets->array_size();
-        d.tets.reserve(4 * count);
+        // Linear tets list 4 particles, quadratic ones 10 (corners, then edge midpoints); the first sets the order.
+        const std::size_t per = count > 0 && tets->item(0).json().is_array() && tets->item(0).json().size() == 10 ? 10 : 4;
+        d.tet_order = per == 10 ? 2 : 1;
+        d.tets.reserve(per * count);
         for (std::size_t t = 0; t < count; ++t) {
             const Node tet = tets->item(t);
-            if (!tet.json().is_array() || tet.json().size() != 4) tet.type_error("[a, b, c, d] (an array of 4 particle indices)");
-            for (std::size_t c = 0; c < 4; ++c) d.tets.push_back(particle_index(tet.item(c), n));
+            if (!tet.json().is_array() || tet.json().size() != per)
+                tet.type_error(per == 4 ? "[a, b, c, d] (an array of 4 particle indices, as the first tet has)"
+                                        : "an array of 10 particle indices (a quadratic tet, as the first tet is)");
+            for (std::size_t c = 0; c < per; ++c) d.tets.push_back(particle_index(tet.item(c), n));
         }
         if (auto rest = b.find("rest_positions")) {
             if (rest->array_size() != n)
@@ -276,7 +287,7 @@ void build_explicit(const Node& b, const SoftBodyDef& base, SceneSoftBody& out) 
         }
         // The mesh checks (volumes, duplicates, manifold boundary), reported at "tets".
         try {
-            check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "tets");
+            check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "tets", d.tet_order);
         } catch (const SoftError& e) {
             tets->fail(e.what());
         }
@@ -326,8 +337,8 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
             keys.insert(keys.end(), {"positions", "masses", "velocities", "links", "triangles", "tets", "rest_positions", "plastic_strain"});
         if (is_fem) keys.push_back("fem");
         keys.push_back("pinned_box");
-        if (out.builder == "tet-box") keys.insert(keys.end(), {"min_corner", "center", "size", "cells", "split"});
-        if (out.builder == "tet-mesh") keys.insert(keys.end(), {"file", "scale", "position"});
+        if (out.builder == "tet-box") keys.insert(keys.end(), {"min_corner", "center", "size", "cells", "split", "order"});
+        if (out.builder == "tet-mesh") keys.insert(keys.end(), {"file", "scale", "position", "order"});
         if (out.builder == "cloth") keys.insert(keys.end(), {"nodes", "origin", "edge_u", "edge_v", "shear", "bend", "pinned_nodes"});
         if (out.builder == "rope") keys.insert(keys.end(), {"from", "to", "segments"});
         if (out.builder == "icosphere") keys.insert(keys.end(), {"center", "radius", "subdivisions"});
@@ -373,6 +384,8 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
             (b.find("method") ? b.get("method") : b)
                 .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") +
                       soft_method_name(out.def.method));
+        if (out.def.tet_order == 2 && out.def.fem.plastic())
+            b.get("fem").fail("plasticity (creep and max_plastic > 0) needs linear tets: this body's tets are quadratic (order 2)");
         const std::size_t n = out.def.positions.size();
         if (auto pins = b.find("pinned")) {
             for (std::size_t i = 0; i < pins->array_size(); ++i) {

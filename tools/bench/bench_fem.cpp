@@ -3,7 +3,7 @@
 // Issue 13's FEM scenes, each run with Sinew's element settings (rotation method, mesh refinement) and
 // with Bullet's btDeformableBody in the same process; one JSON line per run on stdout, progress on stderr.
 // Beams: accuracy = the settled tip deflection over a converged reference of our own, the finest Sinew
-// run of the same invocation (corotational, the scene's cells x 4 along each axis); the cantilever's
+// run of the same invocation (corotational quadratic tets, the scene's cells x 2 along each axis); the cantilever's
 // reference is also checked against Euler-Bernoulli in the table. Blocks: accuracy = the final volume
 // ratio. --markdown rewrites the section between <!-- bench-fem:begin --> and <!-- bench-fem:end -->;
 // --chart draws accuracy error against time and time against tets with gnuplot.
@@ -34,11 +34,14 @@ namespace {
 
 const char* const kDefaultScenes[] = {"beam-cantilever", "beam-large", "ball-drop", "fem-block-1k", "fem-block-5k",
                                       "fem-block-20k", "fem-block-50k"};
-constexpr int kReferenceRefinement = 4;
+// The beams' reference: quadratic tets on the scene's cells x 2 (3,840 tets, 6,561 nodes for the
+// cantilever). Converged: the static cantilever on cells x 2 and x 4 differ by 0.1% (docs/fem.md).
+constexpr int kReferenceRefinement = 2;
+const char* const kReferenceVariant = "polar q2 r2 rest-factor";
 
 }  // namespace
 
-FemScene fem_scene(const std::string& name, const std::string& scene_dir, int refinement) {
+FemScene fem_scene(const std::string& name, const std::string& scene_dir, int refinement, int order) {
     const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");
     auto fail = [&](const std::string& what) { throw SceneError(scene.file, "", "not an FEM benchmark scene: " + what); };
     if (scene.soft_bodies.size() != 1 || (scene.soft_bodies[0].builder != "tet-box" && scene.soft_bodies[0].builder != "tet-mesh"))
@@ -64,8 +67,10 @@ FemScene fem_scene(const std::string& name, const std::string& scene_dir, int re
         if (!body.def.pinned.empty()) fail("a tet-mesh body may not be pinned");
         s.mesh.nodes = body.def.positions;
         s.mesh.tets = body.def.tets;
+        s.mesh.order = body.def.tet_order;
     }
-    s.masses = lumped_masses(s.mesh.nodes, s.mesh.tets, s.material.density);
+    if (order == 2 && s.mesh.order == 1) s.mesh = make_quadratic(s.mesh);
+    s.masses = lumped_masses(s.mesh.nodes, s.mesh.tets, s.material.density, s.mesh.order);
     // A beam is clamped at its x = min face (the scene pins exactly those nodes); a block or ball is free.
     const Real x0 = box.min_corner.x() + Real(1e-6) * box.size.x();
     for (const std::uint32_t i : body.def.pinned)
@@ -119,7 +124,7 @@ double mesh_volume(const TetMesh& mesh, const std::vector<Vec3>& x, int* inverte
     double v = 0;
     int bad = 0;
     for (std::size_t e = 0; e < mesh.tet_count(); ++e) {
-        const std::uint32_t* t = &mesh.tets[4 * e];
+        const std::uint32_t* t = &mesh.tets[std::size_t(tet_nodes(mesh.order)) * e];
         const double ve = double(tet_volume(x[t[0]], x[t[1]], x[t[2]], x[t[3]]));
         v += ve;
         bad += ve <= 0;
@@ -135,6 +140,8 @@ struct SinewSetting {
     int refinement = 1;
     FemRotation rotation = FemRotation::Polar;
     int min_cg_cap = 0;  ///< the scene's CG cap, raised to this (the reference must converge)
+    int order = 1;       ///< 2: quadratic tets
+    SoftPreconditioner preconditioner = SoftPreconditioner::BlockJacobi;
 };
 
 std::vector<SinewSetting> sinew_settings(FemSceneKind kind) {
@@ -143,7 +150,13 @@ std::vector<SinewSetting> sinew_settings(FemSceneKind kind) {
         out.push_back({std::string(fem_rotation_name(r)) + " r1", 1, r});
     if (kind == FemSceneKind::Beam) {
         out.push_back({"polar r2", 2, FemRotation::Polar});
-        out.push_back({"polar r4", kReferenceRefinement, FemRotation::Polar, 1000});  // its cap at least 1000
+        out.push_back({"polar q2 r1", 1, FemRotation::Polar, 0, 2});
+        out.push_back({"polar q2 r1 rest-factor", 1, FemRotation::Polar, 0, 2, SoftPreconditioner::RestFactor});
+        out.push_back({"polar r2 rest-factor", 2, FemRotation::Polar, 0, 1, SoftPreconditioner::RestFactor});
+        // Its cap at least 1000.
+        out.push_back({kReferenceVariant, kReferenceRefinement, FemRotation::Polar, 1000, 2, SoftPreconditioner::RestFactor});
+    } else {
+        out.push_back({"polar q2 r1", 1, FemRotation::Polar, 0, 2});
     }
     return out;
 }
@@ -174,6 +187,8 @@ FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock
     d.positions = s.mesh.nodes;
     d.masses = s.masses;
     d.tets = s.mesh.tets;
+    d.tet_order = s.mesh.order;
+    d.preconditioner = v.preconditioner;
     d.pinned = s.pinned;
     const SoftBodyId id = soft.create_body(std::move(d));
     Pipeline pipeline;
@@ -241,7 +256,7 @@ double euler_bernoulli(const FemScene& s) {
 std::string markdown_table(const std::vector<FemRun>& runs, const std::vector<std::pair<std::string, double>>& eb, BenchClock clock) {
     std::ostringstream md;
     md << "Times are medians of per-step " << (clock == BenchClock::ThreadCpu ? "thread CPU time" : "wall time")
-       << ", h from each scene (1/60 s), the CG cap and tolerance from each scene's solver settings. Beams: accuracy = tip deflection (mean over the last second) / the reference (Sinew, polar, cells x "
+       << ", h from each scene (1/60 s), the CG cap and tolerance from each scene's solver settings. Beams: accuracy = tip deflection (mean over the last second) / the reference (Sinew, polar, quadratic tets, cells x "
        << kReferenceRefinement << "). Blocks: accuracy = final volume / rest volume.\n\n";
     md << "| scene | engine | variant | tets | nodes | ms/step (median) | tip deflection (m) | accuracy | min volume ratio | "
           "inverted at end | finite |\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n";
@@ -254,7 +269,7 @@ std::string markdown_table(const std::vector<FemRun>& runs, const std::vector<st
         for (const auto& e : eb) {
             double ref = std::nan("");
             for (const FemRun& r : runs)
-                if (r.scene == e.first && r.engine == "sinew-implicit" && r.variant == "polar r4") ref = r.tip_deflection;
+                if (r.scene == e.first && r.engine == "sinew-implicit" && r.variant == kReferenceVariant) ref = r.tip_deflection;
             md << "| " << e.first << " | " << fmt("%.5f", ref) << " | " << fmt("%.5f", e.second) << " | " << fmt("%.3f", ref / e.second)
                << " |\n";
         }
@@ -275,7 +290,7 @@ std::string markdown_table(const std::vector<FemRun>& runs, const std::vector<st
         }
         const FemRun* best = nullptr;
         for (const FemRun& r : runs)
-            if (r.scene == b.scene && r.engine != "bullet" && r.finite && std::abs(r.accuracy - 1) <= 0.05 && r.variant != "polar r4" &&
+            if (r.scene == b.scene && r.engine != "bullet" && r.finite && std::abs(r.accuracy - 1) <= 0.05 && r.variant != kReferenceVariant &&
                 (!best || r.ms_per_step_median < best->ms_per_step_median))
                 best = &r;
         md << "\nCantilever target: Bullet's most accurate stable run (" << best_bullet->variant << ") reaches "
@@ -300,7 +315,7 @@ bool write_chart(const std::vector<FemRun>& runs, const std::string& png) {
         out << "# beams " << e << "\n";
         bool any = false;
         for (const FemRun& r : runs)
-            if (r.engine == e && std::isfinite(r.tip_deflection) && r.finite && std::isfinite(r.accuracy) && r.variant != "polar r4") {
+            if (r.engine == e && std::isfinite(r.tip_deflection) && r.finite && std::isfinite(r.accuracy) && r.variant != kReferenceVariant) {
                 out << std::max(r.ms_per_step_median, 1e-3) << " " << std::max(std::abs(r.accuracy - 1), 1e-4) << " \"" << r.scene
                     << " " << r.variant << "\"\n";
                 any = true;
@@ -385,7 +400,8 @@ int cmd_bench_fem(const std::vector<std::string>& args) {
             if (!wanted("sinew-implicit", v.variant)) continue;
             std::cerr << "bench: " << base.name << " sinew-implicit " << v.variant << " (" << n << " steps)...\n";
             try {
-                runs.push_back(run_sinew(v.refinement == 1 ? base : fem_scene(scenes[k], scene_dir, v.refinement), v, n, clock));
+                runs.push_back(run_sinew(v.refinement == 1 && v.order == 1 ? base : fem_scene(scenes[k], scene_dir, v.refinement, v.order),
+                                        v, n, clock));
             } catch (const std::exception& e) {
                 std::cerr << "bench: " << base.name << " " << v.variant << " failed: " << e.what() << "\n";
                 ++failed;
@@ -407,7 +423,7 @@ int cmd_bench_fem(const std::vector<std::string>& args) {
         if (base.kind == FemSceneKind::Beam) {
             double reference = std::nan("");
             for (std::size_t i = first; i < runs.size(); ++i)
-                if (runs[i].engine == "sinew-implicit" && runs[i].variant == "polar r4" && runs[i].finite) reference = runs[i].tip_deflection;
+                if (runs[i].engine == "sinew-implicit" && runs[i].variant == kReferenceVariant && runs[i].finite) reference = runs[i].tip_deflection;
             for (std::size_t i = first; i < runs.size(); ++i) runs[i].accuracy = runs[i].tip_deflection / reference;
             eb.emplace_back(base.name, euler_bernoulli(base));
         }

@@ -39,9 +39,9 @@ struct FemScene {
     Real cg_tolerance = Real(1e-3);    ///< the scene's solver.cg_tolerance
 };
 
-/// The scene file's FEM body (one tet-box) with its cells multiplied by `refinement`. Throws SceneError
-/// naming the file for anything else.
-FemScene fem_scene(const std::string& name, const std::string& scene_dir, int refinement);
+/// The scene file's FEM body (one tet-box) with its cells multiplied by `refinement`, its tets of `order`
+/// (1 linear, 2 quadratic). Throws SceneError naming the file for anything else.
+FemScene fem_scene(const std::string& name, const std::string& scene_dir, int refinement, int order = 1);
 
 /// One (scene, refinement, engine, variant) run.
 struct FemRun {
