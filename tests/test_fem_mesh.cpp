@@ -65,6 +65,53 @@ TEST_CASE("Lumped masses sum to the mesh's density times volume", "[fem][mesh]")
     CHECK(total == Approx(1000 * 1.0 * 0.1 * 0.1).epsilon(1e-5));
 }
 
+TEST_CASE("Quadratic tets: one node per edge, masses that sum to rho V, a closed boundary of 4 triangles a face", "[fem][mesh]") {
+    const int nx = 3, ny = 2, nz = 2;
+    const TetMesh linear = make_tet_box(Vec3(-1, 0, 2), Vec3(1.5, 0.5, 2), nx, ny, nz, HexSplit::Six);
+    const TetMesh m = make_quadratic(linear);
+    REQUIRE(m.order == 2);
+    CHECK(m.tet_count() == linear.tet_count());
+    // Euler's formula for the box's tet complex: V - E + F - T = 1, with F = (4 T + boundary faces) / 2.
+    const std::size_t boundary = boundary_triangles(linear.tets).size() / 3;
+    const std::size_t faces = (4 * linear.tet_count() + boundary) / 2;
+    const std::size_t edges = linear.nodes.size() + faces - linear.tet_count() - 1;
+    CHECK(m.nodes.size() == linear.nodes.size() + edges);
+    for (std::size_t i = 0; i < linear.nodes.size(); ++i) REQUIRE(m.nodes[i] == linear.nodes[i]);  // corners keep their indices
+    REQUIRE_NOTHROW(check_tet_mesh(m.nodes, m.tets, "box", 2));
+    const std::vector<Real> mass = lumped_masses(m.nodes, m.tets, 1000, 2);
+    double total = 0;
+    for (const Real x : mass) {
+        REQUIRE(x > 0);
+        total += x;
+    }
+    CHECK(total == Approx(1000 * 1.5 * 0.5 * 2).epsilon(1e-5));
+    const std::vector<std::uint32_t> surface = boundary_triangles(m.tets, 2);
+    CHECK(surface.size() / 3 == 4 * boundary);
+    CHECK(enclosed_volume(surface, m.nodes) == Approx(1.5).epsilon(1e-5));
+}
+
+TEST_CASE("Quadratic mesh checks: an edge node off its midpoint, or two nodes for one edge", "[fem][mesh]") {
+    TetMesh m = make_quadratic(make_tet_box(Vec3::Zero(), Vec3(1, 1, 1), 1, 1, 1));
+    SECTION("off the midpoint") {
+        const std::uint32_t k = m.tets[10 * 2 + 5];
+        m.nodes[k] += Vec3(0, 0, Real(0.01));
+        CHECK_THAT(refusal([&] { check_tet_mesh(m.nodes, m.tets, "mesh", 2); }),
+                   Catch::Contains("node " + std::to_string(k) + " of tet ") && Catch::Contains("is not at the midpoint of its edge"));
+    }
+    SECTION("two nodes for one edge") {
+        // Tet 1's first edge gets a node of its own at the same midpoint: tets 0 and 1 share that edge.
+        m.nodes.push_back(m.nodes[m.tets[10 * 1 + 4]]);
+        const std::uint32_t old = m.tets[10 * 1 + 4];
+        m.tets[10 * 1 + 4] = std::uint32_t(m.nodes.size() - 1);
+        const std::string e = refusal([&] { check_tet_mesh(m.nodes, m.tets, "mesh", 2); });
+        CHECK_THAT(e, Catch::Contains("has node " + std::to_string(old)) || Catch::Contains("at the same place"));
+    }
+    SECTION("a count that is not a multiple of 10") {
+        m.tets.pop_back();
+        CHECK_THAT(refusal([&] { check_tet_mesh(m.nodes, m.tets, "mesh", 2); }), Catch::Contains("not a multiple of 10"));
+    }
+}
+
 TEST_CASE("Mesh checks name the element, its nodes and its volume", "[fem][mesh]") {
     TetMesh m = make_tet_box(Vec3::Zero(), Vec3(1, 1, 1), 1, 1, 1);
     SECTION("inverted") {

@@ -384,6 +384,9 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
             (b.find("method") ? b.get("method") : b)
                 .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") +
                       soft_method_name(out.def.method));
+        if (out.def.preconditioner == SoftPreconditioner::RestFactor &&
+            (out.def.tets.empty() || out.def.method != SoftMethod::ImplicitEuler))
+            b.get("solver").get("preconditioner").fail("rest-factor is for FEM bodies (tets) under the implicit method");
         if (out.def.tet_order == 2 && out.def.fem.plastic())
             b.get("fem").fail("plasticity (creep and max_plastic > 0) needs linear tets: this body's tets are quadratic (order 2)");
         const std::size_t n = out.def.positions.size();
