@@ -38,6 +38,11 @@ std::string check_soft_def(const sinew_soft_def& d) {
     if (!nonneg(d.pressure)) return "def->pressure = " + to_text(d.pressure) + " must be finite and >= 0 (J)";
     if (d.long_range_attachments != 0 && d.long_range_attachments != 1)
         return "def->long_range_attachments = " + std::to_string(d.long_range_attachments) + " must be 0 or 1";
+    if (d.tet_order != 1 && d.tet_order != 2)
+        return "def->tet_order = " + std::to_string(d.tet_order) + " must be 1 (linear tets) or 2 (quadratic tets)";
+    const int preconditioner = enum_value(d.preconditioner);
+    if (preconditioner < SINEW_PRECONDITIONER_BLOCK_JACOBI || preconditioner > SINEW_PRECONDITIONER_REST_FACTOR)
+        return "def->preconditioner = " + std::to_string(preconditioner) + " is not a sinew_soft_preconditioner";
     const struct {
         const char* name;
         float value;
@@ -76,6 +81,8 @@ SoftBodyDef base_def(const sinew_soft_def& d) {
     b.gravity_scale = Real(d.gravity_scale);
     b.allow_sleep = d.allow_sleep == 1;
     b.filter = to_filter(d.filter);
+    b.preconditioner = enum_value(d.preconditioner) == SINEW_PRECONDITIONER_REST_FACTOR ? SoftPreconditioner::RestFactor
+                                                                                        : SoftPreconditioner::BlockJacobi;
     b.user_data = d.user_data;
     return b;
 }
@@ -226,6 +233,8 @@ sinew_soft_def sinew_soft_def_default(void) {
     d.gravity_scale = float(b.gravity_scale);
     d.allow_sleep = b.allow_sleep ? 1 : 0;
     d.filter = to_c(b.filter);
+    d.tet_order = 1;
+    d.preconditioner = SINEW_PRECONDITIONER_BLOCK_JACOBI;
     d.user_data = 0;
     return d;
 }
@@ -561,8 +570,8 @@ sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sinew_soft_de
         SoftBodyDef base = base_def(*def);
         base.fem = fem_material(*material);
         // make_tet_box checks the total cell count (SoftError names it).
-        SoftBodyDef d = make_tet_body(make_tet_box(to_vec(min_corner), to_vec(size), nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six),
-                                      std::move(base));
+        TetMesh mesh = make_tet_box(to_vec(min_corner), to_vec(size), nx, ny, nz, split == 5 ? HexSplit::Five : HexSplit::Six);
+        SoftBodyDef d = make_tet_body(def->tet_order == 2 ? make_quadratic(mesh) : mesh, std::move(base));
         return finish_create(fn, w, world, std::move(d), out);
     });
 }
@@ -585,7 +594,8 @@ sinew_status sinew_soft_create_tet_mesh(sinew_world_id world, const sinew_soft_d
             if (!finite(nodes[i])) return invalid(fn, "nodes[" + std::to_string(i) + "] = " + vec_text(nodes[i]) + " must be finite");
             mesh.nodes[static_cast<std::size_t>(i)] = to_vec(nodes[i]);
         }
-        mesh.tets.assign(tets, tets + 4 * static_cast<std::size_t>(tet_count));
+        mesh.order = def->tet_order;  // begin_create checked it: 1 or 2
+        mesh.tets.assign(tets, tets + static_cast<std::size_t>(tet_nodes(mesh.order)) * static_cast<std::size_t>(tet_count));
         SoftBodyDef base = base_def(*def);
         base.fem = fem_material(*material);
         // make_tet_body checks the mesh first (SoftError names the tet, its nodes and its volume).

@@ -299,6 +299,14 @@ typedef enum sinew_soft_method {
     SINEW_SOFT_FAST_MS = 4        /* springs, Liu et al. 2013 fast mass-spring (local/global) */
 } sinew_soft_method;
 
+/* How implicit Euler's conjugate gradient is preconditioned. */
+typedef enum sinew_soft_preconditioner {
+    SINEW_PRECONDITIONER_BLOCK_JACOBI = 0, /* each particle's 3x3 diagonal block (any implicit body) */
+    SINEW_PRECONDITIONER_REST_FACTOR = 1   /* implicit tet bodies: the rest shape's system factored once and
+                                              turned with the nodes; for stiff solids, where block Jacobi
+                                              runs to the iteration cap (docs/fem.md) */
+} sinew_soft_preconditioner;
+
 /* Link material by kind. Mass-spring methods read stretch/shear/bend/damping; Verlet reads fraction. */
 typedef struct sinew_soft_links {
     float stretch;  /* N/m, >= 0, structural links (default 1000) */
@@ -324,6 +332,9 @@ typedef struct sinew_soft_def {
     float gravity_scale;        /* finite (default 1) */
     int allow_sleep;            /* 0 or 1 (default 1) */
     sinew_filter filter;        /* which rigid bodies the particles meet (default: all) */
+    int tet_order;              /* tet bodies: 1 = linear (4-node) tets, 2 = quadratic (10-node) tets, which
+                                   bend without locking; no plasticity (default 1) */
+    sinew_soft_preconditioner preconditioner; /* implicit bodies (default SINEW_PRECONDITIONER_BLOCK_JACOBI) */
     uint64_t user_data;         /* yours, returned by sinew_soft_user_data() */
 } sinew_soft_def;
 
@@ -419,13 +430,15 @@ typedef struct sinew_fem_material {
 SINEW_API sinew_fem_material sinew_fem_material_default(void);
 /** A solid box from min_corner (m) of extents size (m, > 0), cut into nx x ny x nz cells (each in
  *  [1, 1000]) of `split` (5 or 6) tets each: (nx+1)(ny+1)(nz+1) particles, node (i, j, k) being particle
- *  i + (nx+1) (j + (ny+1) k). */
+ *  i + (nx+1) (j + (ny+1) k). With def->tet_order = 2 the tets are quadratic: a particle is added at the
+ *  midpoint of every edge, after those. */
 SINEW_API sinew_status sinew_soft_create_tet_box(sinew_world_id world, const sinew_soft_def* def,
                                                  const sinew_fem_material* material, sinew_vec3 min_corner,
                                                  sinew_vec3 size, int nx, int ny, int nz, int split,
                                                  sinew_soft_body_id* out);
 /** A solid from a tet mesh: node_count (>= 4) positions (m, world, the rest shape) and tet_count (> 0)
- *  tets of 4 node indices each, positively oriented ((b-a).((c-a)x(d-a)) > 0). The mesh is checked first
+ *  tets of 4 node indices each, positively oriented ((b-a).((c-a)x(d-a)) > 0); with def->tet_order = 2, of
+ *  10 each: the 4 corners, then the midpoints of the edges (0 1) (1 2) (0 2) (0 3) (1 3) (2 3). The mesh is checked first
  *  (an inverted or flat tet, duplicate or unused nodes, a face on three tets, an open boundary: the
  *  message names the tet and its volume). The arrays are copied. */
 SINEW_API sinew_status sinew_soft_create_tet_mesh(sinew_world_id world, const sinew_soft_def* def,
