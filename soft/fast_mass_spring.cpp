@@ -32,11 +32,23 @@
 // v_{n+1} = (v_n + h M⁻¹ (f_ext + f_springs(x_{n+1}))) / (1 + h drag), the drag every integrator shares, and
 // a body at rest feels all of its weight (scaling y alone would lighten gravity by 1/(1 + h drag) at
 // equilibrium). External forces (with gravity) and Matyka's pressure are explicit (at x_n), inside y.
+//
+// Linear tets: projective dynamics (Bouaziz, Martin, Liu, Kavan & Pauly 2014, seed 002). Each element adds
+// the energies ½ w_s ‖F − R‖² (R the element rotation: as-rigid-as-possible) and ½ w_v ‖F − T_v‖²
+// (T_v = F det(F)^(-1/3), F scaled to its volume: a volume constraint), F = Σ_a x_a g_aᵀ linear in the
+// nodes, so the global matrix gains (w_s + w_v) Σ_e (g_a · g_b) at nodes (a, b), the same for x, y and z,
+// and the right-hand side (w_s R + w_v T_v) g_a at node a. w_s = 2 μ V and w_v = 3 λ V make the energy
+// μ ‖ε‖² + ½ λ tr(ε)² per volume for small strains, linear elasticity's, so the method converges to the
+// same static answer as the corotational elements. The local step takes R from the element's rotation
+// method (the batched polar iteration, warm-started, soft/fem_kernel.cpp); an inverted element
+// (det F <= 0) targets R alone. Rayleigh damping and plasticity are the force-based methods' (refused
+// here); quadratic tets are refused too.
 #include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <memory>
 #include <string>
 
+#include "soft/fem_elements.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -46,8 +58,50 @@ namespace {
 
 constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
 
+// The shape-function gradients g_0..g_3 of element e: the rows of D_m⁻¹, g_0 = -(g_1 + g_2 + g_3).
+void element_gradients(const FemState& s, std::size_t e, Vec3 (&g)[4]) {
+    for (int k = 1; k < 4; ++k) g[k] = s.dm_inv[e].row(k - 1).transpose();
+    g[0] = -(g[1] + g[2] + g[3]);
+}
+
+// Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
+double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
+double volume_weight(const FemState& s, std::size_t e) { return 3.0 * double(s.lambda) * double(s.volume[e]); }
+double tet_weight(const FemState& s, std::size_t e) { return shape_weight(s, e) + volume_weight(s, e); }
+
+// The local step of projective dynamics: each element's target (w_s R + w_v T_v) g_a added to the
+// right-hand side at its free nodes, R from the element's rotation method at the current iterate.
+void add_tet_projections(SoftBody& b, FastMassSpringCache& c) {
+    FemState& s = *b.fem;
+    fem_update_rotations(s, b.p.x, b.def.fem.rotation);
+    const std::vector<Vec3>& x = b.p.x;
+    for (std::size_t e = 0; e < s.size(); ++e) {
+        const std::uint32_t* tet = &s.tets[4 * e];
+        Mat3 ds;
+        ds.col(0) = x[tet[1]] - x[tet[0]];
+        ds.col(1) = x[tet[2]] - x[tet[0]];
+        ds.col(2) = x[tet[3]] - x[tet[0]];
+        const Mat3 F = ds * s.dm_inv[e];
+        const Real det = F.determinant();
+        const Mat3& R = s.rotation[e];
+        // The volume target: F scaled to det 1; an inverted or flat element aims at its rotation.
+        const Mat3 volume_target = det > 0 ? Mat3(F * Real(std::cbrt(1.0 / double(det)))) : R;
+        const Mat3 T = Real(shape_weight(s, e)) * R + Real(volume_weight(s, e)) * volume_target;
+        Vec3 g[4];
+        element_gradients(s, e, g);
+        for (int a = 0; a < 4; ++a) {
+            const int r = c.row[tet[a]];
+            if (r < 0) continue;
+            const Vec3 target = T * g[a];
+            for (int k = 0; k < 3; ++k) c.rhs[3 * std::size_t(r) + k] += double(target[k]);
+        }
+    }
+}
+
 bool factorization_is_current(const SoftBody& b, const FastMassSpringCache& c, double h) {
     if (!c.factored || c.h != h || c.drag != b.def.drag) return false;
+    const std::size_t tets = b.fem ? b.fem->size() : 0;
+    if (c.tet_count != tets || (b.fem && (c.tet_mu != b.fem->mu || c.tet_lambda != b.fem->lambda))) return false;
     const std::size_t n = b.p.size(), m = b.links.size();
     if (c.inv_mass.size() != n || c.link_stiffness.size() != m) return false;
     for (std::size_t i = 0; i < n; ++i)
@@ -88,6 +142,22 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
                 if (!lower_only || rb > ra) t.emplace_back(rb, ra, -k);
             }
         }
+        if (b.fem) {
+            // Projective dynamics: (w_s + w_v) (g_a · g_b) per element and pair of its nodes.
+            const FemState& s = *b.fem;
+            for (std::size_t e = 0; e < s.size(); ++e) {
+                const std::uint32_t* tet = &s.tets[4 * e];
+                Vec3 g[4];
+                element_gradients(s, e, g);
+                const double w = tet_weight(s, e);
+                for (int a = 0; a < 4; ++a)
+                    for (int c2 = 0; c2 < 4; ++c2) {
+                        const int ra = row[tet[a]], rc = row[tet[c2]];
+                        if (ra < 0 || rc < 0 || (lower_only && rc > ra)) continue;
+                        t.emplace_back(ra, rc, w * double(g[a].dot(g[c2])));
+                    }
+            }
+        }
         SparseMatrix a(nf, nf);
         a.setFromTriplets(t.begin(), t.end());  // sums duplicates
         return a;
@@ -121,6 +191,9 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
     c.h = h;
     c.drag = b.def.drag;
     c.inv_mass = p.inv_mass;
+    c.tet_count = b.fem ? b.fem->size() : 0;
+    c.tet_mu = b.fem ? b.fem->mu : 0;
+    c.tet_lambda = b.fem ? b.fem->lambda : 0;
     c.link_ends.resize(2 * m);
     c.link_stiffness.resize(m);
     for (std::size_t j = 0; j < m; ++j) {
@@ -226,6 +299,27 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
         if (rb >= 0 && ra < 0)
             for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(rb) + k] += double(l.stiffness) * double(p.x[l.a][k]);
     }
+    if (b.fem) {
+        // A free node's coupling to a pinned one moves to the right: -(w_s + w_v) (g_a · g_b) x_b.
+        const FemState& s = *b.fem;
+        for (std::size_t e = 0; e < s.size(); ++e) {
+            const std::uint32_t* tet = &s.tets[4 * e];
+            Vec3 g[4];
+            bool mixed = false;
+            for (int a = 0; a < 4; ++a) mixed = mixed || c.row[tet[a]] < 0;
+            if (!mixed) continue;
+            element_gradients(s, e, g);
+            const double w = tet_weight(s, e);
+            for (int a = 0; a < 4; ++a) {
+                const int ra = c.row[tet[a]];
+                if (ra < 0) continue;
+                for (int q = 0; q < 4; ++q)
+                    if (c.row[tet[q]] < 0)
+                        for (int k = 0; k < 3; ++k)
+                            c.inertia[3 * std::size_t(ra) + k] -= w * double(g[a].dot(g[q])) * double(p.x[tet[q]][k]);
+            }
+        }
+    }
     const int iterations = c.inv_d.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
@@ -250,6 +344,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
             if (rb >= 0)
                 for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(rb) + a] -= k * double(d[a]);
         }
+        if (b.fem) add_tet_projections(b, c);
         solve_in_place(c, c.rhs);
         for (std::size_t i = 0; i < n; ++i) {
             const int r = c.row[i];

@@ -33,7 +33,7 @@ enum class SoftMethod : std::uint8_t {
     ExplicitEuler,      ///< springs, FEM; x += h v_n, v += h a(x_n, v_n) (unstable undamped at any h)
     SemiImplicitEuler,  ///< springs, FEM; v += h a(x_n, v_n), x += h v_{n+1} (stable iff omega h < 2)
     ImplicitEuler,      ///< springs, FEM; Baraff-Witkin 1998, one Newton step solved by preconditioned CG
-    FastMassSpring,     ///< springs; Liu 2013 local/global with a sparse Cholesky factored once
+    FastMassSpring,     ///< springs and linear tets: Liu 2013 / Bouaziz 2014 local/global, a sparse Cholesky factored once
     Count
 };
 const char* soft_method_name(SoftMethod m);
@@ -41,6 +41,9 @@ const char* soft_method_name(SoftMethod m);
 inline bool is_force_based(SoftMethod m) {
     return m == SoftMethod::ExplicitEuler || m == SoftMethod::SemiImplicitEuler || m == SoftMethod::ImplicitEuler;
 }
+/// The methods a body with tets may use: the force-based ones, whose FEM force model is stiffness-warped
+/// elements, and fast-ms, which on tets is projective dynamics (Bouaziz 2014; soft/fast_mass_spring.cpp).
+inline bool accepts_tets(SoftMethod m) { return is_force_based(m) || m == SoftMethod::FastMassSpring; }
 /// Parses "verlet", "explicit", "semi-implicit", "implicit", "fast-ms"; returns false if unknown.
 bool parse_soft_method(const char* text, SoftMethod& out);
 

@@ -83,8 +83,13 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (d.tets.empty() && (!d.rest_positions.empty() || !d.plastic_strain.empty()))
         fail("rest_positions and plastic_strain belong to FEM bodies, and this one has no tets");
     if (!d.tets.empty()) {
-        if (!is_force_based(d.method))
-            fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") + soft_method_name(d.method));
+        if (!accepts_tets(d.method))
+            fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit) or fast-ms (projective "
+                             "dynamics), got ") + soft_method_name(d.method));
+        if (d.method == SoftMethod::FastMassSpring && d.tet_order != 1)
+            fail("fast-ms (projective dynamics) needs linear tets (tet_order 1)");
+        if (d.method == SoftMethod::FastMassSpring && d.fem.plastic())
+            fail("plasticity needs a force-based method (explicit, semi-implicit or implicit), not fast-ms");
         const std::string bad = fem_material_problem(d.fem, "fem.");
         if (!bad.empty()) fail(bad);
         if (!d.rest_positions.empty() && d.rest_positions.size() != n)

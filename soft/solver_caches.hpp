@@ -90,6 +90,8 @@ struct FastMassSpringCache {
     std::vector<Real> inv_mass;   ///< per particle: the pin set (0) and the masses
     std::vector<std::uint32_t> link_ends;  ///< 2 per link
     std::vector<Real> link_stiffness;
+    std::size_t tet_count = 0;    ///< projective dynamics: the elements and their Lamé parameters
+    Real tet_mu = 0, tet_lambda = 0;
 
     std::vector<int> row;         ///< particle -> row of the system, -1 for pinned particles
     SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle

@@ -203,9 +203,10 @@ std::string check_fem_material(const sinew_fem_material& m) {
 /// The checks of a tet body's creation beyond begin_create's: the material and a force-based method.
 sinew_status check_fem_create(const char* fn, const sinew_soft_def& def, const sinew_fem_material* material) {
     if (!material) return null_arg(fn, "material");
-    if (!is_force_based(base_def(def).method))  // begin_create checked the value is a sinew_soft_method
+    if (!accepts_tets(base_def(def).method))  // begin_create checked the value is a sinew_soft_method
         return invalid(fn, "def->method = " + std::to_string(enum_value(def.method)) +
-                               ": a tet body needs SINEW_SOFT_IMPLICIT, SINEW_SOFT_SEMI_IMPLICIT or SINEW_SOFT_EXPLICIT");
+                               ": a tet body needs SINEW_SOFT_IMPLICIT, SINEW_SOFT_SEMI_IMPLICIT, SINEW_SOFT_EXPLICIT or "
+                               "SINEW_SOFT_FAST_MS (projective dynamics)");
     const std::string bad = check_fem_material(*material);
     if (!bad.empty()) return invalid(fn, bad);
     return SINEW_OK;

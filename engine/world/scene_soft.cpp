@@ -380,9 +380,10 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         } catch (const SoftError& e) {
             b.fail(e.what());
         }
-        if (!out.def.tets.empty() && !is_force_based(out.def.method))
+        if (!out.def.tets.empty() && !accepts_tets(out.def.method))
             (b.find("method") ? b.get("method") : b)
-                .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit), got ") +
+                .fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit) or fast-ms "
+                                  "(projective dynamics), got ") +
                       soft_method_name(out.def.method));
         if (out.def.preconditioner == SoftPreconditioner::RestFactor &&
             (out.def.tets.empty() || out.def.method != SoftMethod::ImplicitEuler))
