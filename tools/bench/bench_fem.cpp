@@ -142,7 +142,10 @@ struct SinewSetting {
     int min_cg_cap = 0;  ///< the scene's CG cap, raised to this (the reference must converge)
     int order = 1;       ///< 2: quadratic tets
     SoftPreconditioner preconditioner = SoftPreconditioner::BlockJacobi;
+    int pd_iterations = 0;  ///< > 0: projective dynamics (method fast-ms) with this many iterations a step
 };
+
+const char* engine_of(const SinewSetting& v) { return v.pd_iterations > 0 ? "sinew-pd" : "sinew-implicit"; }
 
 std::vector<SinewSetting> sinew_settings(FemSceneKind kind) {
     std::vector<SinewSetting> out;
@@ -158,6 +161,9 @@ std::vector<SinewSetting> sinew_settings(FemSceneKind kind) {
     } else {
         out.push_back({"polar q2 r1", 1, FemRotation::Polar, 0, 2});
     }
+    // Projective dynamics (Bouaziz 2014) on the same linear tets: the fast solver of the same energy.
+    for (const int iterations : {10, 30})
+        out.push_back({"pd " + std::to_string(iterations) + " r1", 1, FemRotation::Polar, 0, 1, SoftPreconditioner::BlockJacobi, iterations});
     return out;
 }
 
@@ -176,10 +182,15 @@ FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock
         soft.colliders().push_back(c);
     }
     SoftBodyDef d;
-    d.method = SoftMethod::ImplicitEuler;
+    d.method = v.pd_iterations > 0 ? SoftMethod::FastMassSpring : SoftMethod::ImplicitEuler;
     d.fem = s.material;
     d.fem.rotation = v.rotation;
-    d.iterations = std::max(s.cg_cap, v.min_cg_cap);
+    d.iterations = v.pd_iterations > 0 ? v.pd_iterations : std::max(s.cg_cap, v.min_cg_cap);
+    if (v.pd_iterations > 0) {
+        // Projective dynamics has no Rayleigh damping: the scene's β (a fraction of the stiffness) is left out.
+        d.fem.stiffness_damping = 0;
+        d.fem.mass_damping = 0;
+    }
     d.cg_tolerance = s.cg_tolerance;
     d.friction = s.friction;
     d.thickness = s.thickness;
@@ -196,7 +207,7 @@ FemRun run_sinew(const FemScene& s, const SinewSetting& v, int steps, BenchClock
 
     FemRun run;
     run.scene = s.name;
-    run.engine = "sinew-implicit";
+    run.engine = engine_of(v);
     run.variant = v.variant;
     run.cg_iterations = 0;
     run.tets = int(s.mesh.tet_count());
@@ -310,8 +321,8 @@ bool write_chart(const std::vector<FemRun>& runs, const std::string& png) {
     // Left: beams, |accuracy - 1| against ms per step; right: blocks, ms per step against tets (log-log).
     const std::string dat = png + ".dat", gp = png + ".gp";
     std::ofstream out(dat);
-    const std::vector<std::string> engines = {"sinew-implicit", "bullet"};
-    for (const std::string& e : engines) {  // index 0, 1: beams
+    const std::vector<std::string> engines = {"sinew-implicit", "bullet", "sinew-pd"};
+    for (const std::string& e : engines) {  // index 0, 1, 2: beams
         out << "# beams " << e << "\n";
         bool any = false;
         for (const FemRun& r : runs)
@@ -323,11 +334,12 @@ bool write_chart(const std::vector<FemRun>& runs, const std::string& png) {
         if (!any) out << "nan nan -\n";
         out << "\n\n";
     }
-    for (const std::string& e : engines) {  // index 2, 3: blocks
+    for (const std::string& e : engines) {  // index 3, 4, 5: blocks
         out << "# blocks " << e << "\n";
         bool any = false;
         for (const FemRun& r : runs)
-            if (r.engine == e && !std::isfinite(r.tip_deflection) && r.finite && (e == "bullet" || r.variant == "polar r1")) {
+            if (r.engine == e && !std::isfinite(r.tip_deflection) && r.finite &&
+                (e == "bullet" || r.variant == "polar r1" || r.variant == "pd 10 r1")) {
                 out << r.tets << " " << r.ms_per_step_median << " \"" << r.variant << "\"\n";
                 any = true;
             }
@@ -342,10 +354,12 @@ bool write_chart(const std::vector<FemRun>& runs, const std::string& png) {
       << "set ylabel '|tip / reference - 1|'\nset arrow 1 from graph 0, first 0.05 to graph 1, first 0.05 nohead dt 2 lc rgb 'red'\n"
       << "plot '" << dat << "' index 0 using 1:2 with points pt 7 ps 1.4 lc rgb '#1f77b4' title 'sinew-implicit', '' index 0 using 1:2:3 "
       << "with labels offset 0,0.8 font ',7' notitle, '' index 1 using 1:2 with points pt 5 ps 1.4 lc rgb '#d62728' title 'bullet', "
-      << "'' index 1 using 1:2:3 with labels offset 0,-0.8 font ',7' notitle\n"
+      << "'' index 1 using 1:2:3 with labels offset 0,-0.8 font ',7' notitle, '' index 2 using 1:2 with points pt 9 ps 1.4 "
+      << "lc rgb '#2ca02c' title 'sinew-pd', '' index 2 using 1:2:3 with labels offset 0,0.8 font ',7' notitle\n"
       << "unset arrow 1\nset title 'falling blocks: time against tets'\nset xlabel 'tets'\nset ylabel 'median ms per step'\n"
-      << "plot '" << dat << "' index 2 using 1:2 with linespoints pt 7 lc rgb '#1f77b4' title 'sinew-implicit (polar)', '' index 3 "
-      << "using 1:2 with linespoints pt 5 lc rgb '#d62728' title 'bullet', 10 with lines dt 2 lc rgb 'gray' title '10 ms'\n"
+      << "plot '" << dat << "' index 3 using 1:2 with linespoints pt 7 lc rgb '#1f77b4' title 'sinew-implicit (polar)', '' index 4 "
+      << "using 1:2 with linespoints pt 5 lc rgb '#d62728' title 'bullet', '' index 5 using 1:2 with linespoints pt 9 "
+      << "lc rgb '#2ca02c' title 'sinew-pd (10 iterations)', 10 with lines dt 2 lc rgb 'gray' title '10 ms'\n"
       << "unset multiplot\n";
     g.close();
     const int rc = std::system(("gnuplot '" + gp + "' 2>/dev/null").c_str());
@@ -397,8 +411,8 @@ int cmd_bench_fem(const std::vector<std::string>& args) {
         const std::size_t first = runs.size();
         auto report = [&](const FemRun& r) { std::cout << to_json_line(r) << std::endl; };
         for (const SinewSetting& v : sinew_settings(base.kind)) {
-            if (!wanted("sinew-implicit", v.variant)) continue;
-            std::cerr << "bench: " << base.name << " sinew-implicit " << v.variant << " (" << n << " steps)...\n";
+            if (!wanted(engine_of(v), v.variant)) continue;
+            std::cerr << "bench: " << base.name << " " << engine_of(v) << " " << v.variant << " (" << n << " steps)...\n";
             try {
                 runs.push_back(run_sinew(v.refinement == 1 && v.order == 1 ? base : fem_scene(scenes[k], scene_dir, v.refinement, v.order),
                                         v, n, clock));
