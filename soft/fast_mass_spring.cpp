@@ -49,6 +49,7 @@
 #include <string>
 
 #include "soft/fem_elements.hpp"
+#include "soft/ldlt_solve.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -207,45 +208,9 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
     ++c.factorizations;
 }
 
-// Solves L D Lᵀ x = b in place, b holding 3 values per row: L is the factor's unit lower triangle without
-// its diagonal, column by column (SimplicialLDLT's compressed storage).
+// Solves L D Lᵀ x = b in place, b holding 3 values per row (soft/ldlt_solve.hpp).
 void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
-    const FastMassSpringCache::SparseMatrix& l = c.ldlt.matrixL().nestedExpression();
-    const int n = int(l.cols());
-    const int* outer = l.outerIndexPtr();
-    const int* nnz = l.innerNonZeroPtr();  // null when compressed
-    const int* inner = l.innerIndexPtr();
-    const double* value = l.valuePtr();
-    double* x = b.data();
-    for (int j = 0; j < n; ++j) {  // L y = b
-        const double x0 = x[3 * j], x1 = x[3 * j + 1], x2 = x[3 * j + 2];
-        const int end = nnz ? outer[j] + nnz[j] : outer[j + 1];
-        for (int p = outer[j]; p < end; ++p) {
-            double* xi = x + 3 * inner[p];
-            xi[0] -= value[p] * x0;
-            xi[1] -= value[p] * x1;
-            xi[2] -= value[p] * x2;
-        }
-    }
-    for (int j = 0; j < n; ++j) {  // D z = y
-        const double s = c.inv_d[std::size_t(j)];
-        x[3 * j] *= s;
-        x[3 * j + 1] *= s;
-        x[3 * j + 2] *= s;
-    }
-    for (int j = n - 1; j >= 0; --j) {  // Lᵀ x = z
-        double x0 = x[3 * j], x1 = x[3 * j + 1], x2 = x[3 * j + 2];
-        const int end = nnz ? outer[j] + nnz[j] : outer[j + 1];
-        for (int p = outer[j]; p < end; ++p) {
-            const double* xi = x + 3 * inner[p];
-            x0 -= value[p] * xi[0];
-            x1 -= value[p] * xi[1];
-            x2 -= value[p] * xi[2];
-        }
-        x[3 * j] = x0;
-        x[3 * j + 1] = x1;
-        x[3 * j + 2] = x2;
-    }
+    ldlt_solve_in_place<3>(c.ldlt.matrixL().nestedExpression(), c.inv_d, b.data());
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 
 #include "soft/fem_elements.hpp"
+#include "soft/ldlt_solve.hpp"
 
 namespace sinew {
 
@@ -40,7 +41,9 @@ struct FemRestFactor::Impl {
     double k_scale = -1;
     // Per step.
     std::vector<Quat> node_rotation;
-    Eigen::VectorXd in, out;
+    std::vector<int> permutation;  ///< the factor's fill-reducing order: row i of A is row permutation[i] of P A Pᵀ
+    std::vector<double> inv_d;     ///< 1 / D
+    std::vector<double> work;      ///< 3 n, in the factor's order
     std::vector<double> scratch;
 };
 
@@ -82,8 +85,14 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
         f.ldlt.compute(A);
         f.ok = f.ldlt.info() == Eigen::Success;
         ++f.factorisations;
-        f.in.resize(Eigen::Index(3 * n));
-        f.out.resize(Eigen::Index(3 * n));
+        if (f.ok) {
+            const auto& perm = f.ldlt.permutationP().indices();
+            f.permutation.assign(perm.data(), perm.data() + perm.size());
+            const Eigen::VectorXd d = f.ldlt.vectorD();
+            f.inv_d.resize(std::size_t(d.size()));
+            for (Eigen::Index k = 0; k < d.size(); ++k) f.inv_d[std::size_t(k)] = 1.0 / d[k];
+        }
+        f.work.assign(3 * n, 0.0);
         f.node_rotation.assign(n, Quat::Identity());
     }
     if (!f.ok) return false;
@@ -111,11 +120,19 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
 }
 
 void FemRestFactor::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
+    // z = R_N Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P R_Nᵀ r, on the factor's arrays (no allocation).
     Impl& f = *impl_;
     const std::size_t n = r.size();
-    for (std::size_t i = 0; i < n; ++i) f.in.segment<3>(Eigen::Index(3 * i)) = (f.node_rotation[i].conjugate() * r[i]).cast<double>();
-    f.out = f.ldlt.solve(f.in);
-    for (std::size_t i = 0; i < n; ++i) z[i] = f.node_rotation[i] * Vec3(f.out.segment<3>(Eigen::Index(3 * i)).cast<Real>());
+    double* w = f.work.data();
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 local = f.node_rotation[i].conjugate() * r[i];
+        for (int k = 0; k < 3; ++k) w[f.permutation[3 * i + std::size_t(k)]] = double(local[k]);
+    }
+    ldlt_solve_in_place<1>(f.ldlt.matrixL().nestedExpression(), f.inv_d, w);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 local(Real(w[f.permutation[3 * i]]), Real(w[f.permutation[3 * i + 1]]), Real(w[f.permutation[3 * i + 2]]));
+        z[i] = f.node_rotation[i] * local;
+    }
 }
 
 }  // namespace sinew

@@ -296,7 +296,8 @@ typedef enum sinew_soft_method {
     SINEW_SOFT_EXPLICIT = 1,      /* springs or FEM, explicit Euler (unstable when undamped: for comparisons) */
     SINEW_SOFT_SEMI_IMPLICIT = 2, /* springs or FEM, symplectic Euler (stable while omega h < 2) */
     SINEW_SOFT_IMPLICIT = 3,      /* springs or FEM, Baraff & Witkin 1998 implicit Euler (one Newton step, CG) */
-    SINEW_SOFT_FAST_MS = 4        /* springs, Liu et al. 2013 fast mass-spring (local/global) */
+    SINEW_SOFT_FAST_MS = 4        /* springs, Liu et al. 2013 fast mass-spring (local/global); on linear tets,
+                                     Bouaziz et al. 2014 projective dynamics */
 } sinew_soft_method;
 
 /* How implicit Euler's conjugate gradient is preconditioned. */
