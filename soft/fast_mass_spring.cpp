@@ -41,8 +41,8 @@
 // μ ‖ε‖² + ½ λ tr(ε)² per volume for small strains, linear elasticity's, so the method converges to the
 // same static answer as the corotational elements. The local step takes R from the element's rotation
 // method (the batched polar iteration, warm-started, soft/fem_kernel.cpp); an inverted element
-// (det F <= 0) targets R alone. Rayleigh damping and plasticity are the force-based methods' (refused
-// here); quadratic tets are refused too.
+// (det F <= 0) targets R alone. Rayleigh damping is the force-based methods' (ignored here: the drag
+// and the method's own damping act); plasticity and quadratic tets are refused under it.
 #include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <memory>

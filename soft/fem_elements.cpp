@@ -63,7 +63,7 @@ std::unique_ptr<FemState> make_fem_state(const std::vector<Vec3>& rest, const st
     s->polar.assign(m, Quat::Identity());
     s->plastic.assign(m, Strain6{});
     s->stiffness.build_pattern(rest.size(), tets, s->nodes_per_tet(), s->element_blocks);
-    if (s->order == 2) quadratic_rest_stiffness(*s);
+    if (s->order == 2) s->quad_stiffness = quadratic_rest_stiffness(*s, s->lambda, s->mu);
     s->scratch.assign(rest.size(), Vec3::Zero());
     return s;
 }
@@ -84,14 +84,20 @@ void set_fem_material(SoftBody& b, const FemMaterial& m) {
     const std::string bad = fem_material_problem(m, "set_fem_material: material.");
     if (!bad.empty()) throw SoftError(bad);
     FemState& s = *b.fem;
-    // The masses first: the only step that allocates (and may throw) runs before anything changes.
-    std::vector<Real> mass;
     if (m.plastic() && s.order != 1)
         throw SoftError("set_fem_material: plasticity needs linear tets (order 1); this body's tets are quadratic");
+    if (m.plastic() && !is_force_based(b.def.method))
+        throw SoftError(std::string("set_fem_material: plasticity needs a force-based method (explicit, semi-implicit or "
+                                    "implicit), not ") + soft_method_name(b.def.method));
+    // What allocates (and may throw) runs before anything changes: the masses, a quadratic body's blocks.
+    std::vector<Real> mass;
     if (m.density != b.def.fem.density) mass = lumped_masses(s.rest, s.tets, m.density, s.order);
+    std::vector<Mat3> blocks;
+    if (s.order == 2) blocks = quadratic_rest_stiffness(s, m.lame_lambda(), m.lame_mu());
     b.def.fem = m;
     s.lambda = m.lame_lambda();
     s.mu = m.lame_mu();
+    if (s.order == 2) s.quad_stiffness = std::move(blocks);
     // Without plasticity no plastic strain: an earlier set is forgotten (fem_material.hpp).
     if (!m.plastic()) std::fill(s.plastic.begin(), s.plastic.end(), Strain6{});
     for (std::size_t i = 0; i < mass.size(); ++i) {

@@ -103,8 +103,8 @@ double fem_elastic_energy(const FemState& s, const std::vector<Vec3>& x);
 Mat3 inverted_rotation(const Mat3& F);
 
 // Quadratic tets (soft/fem_quadratic.cpp), called by the element loop and make_fem_state.
-/// The rest blocks K_ac (a <= c) of every element from dm_inv, volume, lambda and mu.
-void quadratic_rest_stiffness(FemState& s);
+/// The rest blocks K_ac (a <= c) of every element, 55 each, from dm_inv, volume and Lamé's λ and μ.
+std::vector<Mat3> quadratic_rest_stiffness(const FemState& s, Real lambda, Real mu);
 /// The mean deformation gradient (1/V) ∫ ∂x/∂X dV of element e: Σ over the edges (i, j) of x_ij (g_i + g_j)ᵀ
 /// (the corners' shape functions integrate to zero gradient).
 Mat3 quadratic_mean_gradient(const FemState& s, std::size_t e, const std::vector<Vec3>& x);

@@ -35,7 +35,7 @@ using Strain6 = std::array<Real, 6>;
 struct FemMaterial {
     Real young = Real(1e5);    ///< E (Pa), > 0
     Real poisson = Real(0.3);  ///< ν, in (-1, 0.5): 0.5 is incompressible, where linear elements lock
-    Real density = 1000;       ///< ρ (kg/m³): the builders' lumped masses, ρ V / 4 per node and element
+    Real density = 1000;       ///< ρ (kg/m³): the builders' lumped masses (soft/tet_mesh.hpp, lumped_masses)
     Real mass_damping = 0;     ///< Rayleigh α (1/s): damping force -α M v
     Real stiffness_damping = 0;  ///< Rayleigh β (s): damping force -β K' v
     // Plasticity (O'Brien et al. 2002 as Müller & Gross 2004 use it): with ε_e = ε - ε_p the elastic

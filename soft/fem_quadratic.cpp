@@ -42,11 +42,11 @@ void node_corners(int a, int& i, int& j) {
 
 }  // namespace
 
-void quadratic_rest_stiffness(FemState& s) {
+std::vector<Mat3> quadratic_rest_stiffness(const FemState& s, Real lame_lambda, Real lame_mu) {
     const std::size_t m = s.size();
-    s.quad_stiffness.assign(55 * m, Mat3::Zero());
+    std::vector<Mat3> out(55 * m, Mat3::Zero());
     const double a = (5.0 + 3.0 * std::sqrt(5.0)) / 20.0, b = (5.0 - std::sqrt(5.0)) / 20.0;
-    const double lambda = double(s.lambda), mu = double(s.mu);
+    const double lambda = double(lame_lambda), mu = double(lame_mu);
     for (std::size_t e = 0; e < m; ++e) {
         const Eigen::Matrix3d di = s.dm_inv[e].cast<double>();
         Eigen::Vector3d g[4];
@@ -69,8 +69,9 @@ void quadratic_rest_stiffness(FemState& s) {
                     K[pair_index(r, c)] += w * (lambda * grad[r] * grad[c].transpose() + mu * grad[c] * grad[r].transpose() +
                                                 mu * grad[r].dot(grad[c]) * Eigen::Matrix3d::Identity());
         }
-        for (int k = 0; k < 55; ++k) s.quad_stiffness[55 * e + std::size_t(k)] = K[k].cast<Real>();
+        for (int k = 0; k < 55; ++k) out[55 * e + std::size_t(k)] = K[k].cast<Real>();
     }
+    return out;
 }
 
 Mat3 quadratic_mean_gradient(const FemState& s, std::size_t e, const std::vector<Vec3>& x) {

@@ -38,7 +38,7 @@ struct FemRestFactor::Impl {
     // What the factor was built from.
     std::vector<double> diagonal;
     std::vector<std::uint32_t> pinned;
-    double k_scale = -1;
+    double k_scale = -1, lambda = -1, mu = -1;
     // Per step.
     std::vector<Quat> node_rotation;
     std::vector<int> permutation;  ///< the factor's fill-reducing order: row i of A is row permutation[i] of P A Pᵀ
@@ -55,12 +55,13 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
                             const std::vector<std::uint32_t>& pinned) {
     Impl& f = *impl_;
     const std::size_t n = mass.size();
-    bool same = f.k_scale == double(k_scale) && f.diagonal.size() == n && f.pinned == pinned;
+    bool same = f.k_scale == double(k_scale) && f.lambda == double(s.lambda) && f.mu == double(s.mu) &&
+                f.diagonal.size() == n && f.pinned == pinned;
     for (std::size_t i = 0; same && i < n; ++i) same = f.diagonal[i] == double(mass[i]);
     if (!same) {
-        f.diagonal.assign(mass.begin(), mass.end());
-        f.pinned = pinned;
-        f.k_scale = double(k_scale);
+        // Nothing is kept until the factor is: a throw (out of memory) leaves no stale key behind.
+        f.ok = false;
+        f.diagonal.clear();
         std::vector<char> fixed(n, 0);
         for (const std::uint32_t i : pinned) fixed[i] = 1;
         const std::size_t per = std::size_t(s.nodes_per_tet());
@@ -74,7 +75,7 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
                 for (std::size_t c = 0; c < per; ++c) {
                     const std::uint32_t i = nodes[a], j = nodes[c];
                     if (fixed[i] || fixed[j] || j > i) continue;  // the lower triangle (i >= j) only
-                    const Eigen::Matrix3d K = f.k_scale * rest_block(s, e, int(a), int(c));
+                    const Eigen::Matrix3d K = double(k_scale) * rest_block(s, e, int(a), int(c));
                     for (int r = 0; r < 3; ++r)
                         for (int q = 0; q < 3; ++q)
                             if (3 * i + r >= 3 * j + q) t.emplace_back(int(3 * i + r), int(3 * j + q), K(r, q));
@@ -83,9 +84,9 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
         Eigen::SparseMatrix<double> A(int(3 * n), int(3 * n));
         A.setFromTriplets(t.begin(), t.end());
         f.ldlt.compute(A);
-        f.ok = f.ldlt.info() == Eigen::Success;
         ++f.factorisations;
-        if (f.ok) {
+        const bool ok = f.ldlt.info() == Eigen::Success;
+        if (ok) {
             const auto& perm = f.ldlt.permutationP().indices();
             f.permutation.assign(perm.data(), perm.data() + perm.size());
             const Eigen::VectorXd d = f.ldlt.vectorD();
@@ -94,6 +95,12 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
         }
         f.work.assign(3 * n, 0.0);
         f.node_rotation.assign(n, Quat::Identity());
+        f.pinned = pinned;
+        f.k_scale = double(k_scale);
+        f.lambda = double(s.lambda);
+        f.mu = double(s.mu);
+        f.diagonal.assign(mass.begin(), mass.end());
+        f.ok = ok;  // a matrix that could not be factored stays refused until its key changes
     }
     if (!f.ok) return false;
     // Each node turns with the mean of its elements' rotations (quaternions summed on one hemisphere).

@@ -11,8 +11,10 @@
 // corotational elastodynamics", ACM TOG 31(5)) without their updates: used as a preconditioner, CG
 // repairs what the frozen factor misses. Pinned rows are identity in A₀ (their unknown is fixed).
 //
-// The factor is rebuilt when the mass terms, the stiffness scale (h, λ, damping) or the pinned set
-// change; otherwise a step allocates nothing here.
+// The factor is rebuilt when the mass terms, the stiffness scale (h, θ, damping), the material or the set
+// of particles with inverse mass 0 change; otherwise a step allocates nothing here. An attached particle
+// that a two-way coupling layer lets into the solve (it carries a rigid body's share) stays an identity
+// row of A₀: CG solves for it, less well preconditioned, rather than the factor being rebuilt each step.
 #pragma once
 
 #include <memory>
@@ -31,9 +33,9 @@ public:
     FemRestFactor(const FemRestFactor&) = delete;
     FemRestFactor& operator=(const FemRestFactor&) = delete;
 
-    /// Makes sure the factor is that of diag(mass) + k_scale K₀ with `pinned` rows as identity, and takes
-    /// each node's rotation from the elements' current ones. Returns false if the matrix could not be
-    /// factored (the caller falls back to block Jacobi).
+    /// Makes sure the factor is that of diag(mass) + k_scale K₀ (K₀ from the body's current λ and μ) with
+    /// `pinned` rows as identity, and takes each node's rotation from the elements' current ones. Returns
+    /// false if the matrix could not be factored (the caller falls back to block Jacobi).
     bool prepare(const FemState& s, const std::vector<Real>& mass, Real k_scale, const std::vector<std::uint32_t>& pinned);
 
     /// z = R_N A₀⁻¹ R_Nᵀ r (pinned rows of z are r's).

@@ -113,8 +113,12 @@ bool prepare_rest_factor(const SoftBody& b, ImplicitEulerCache& c) {
     const FemState& s = *b.fem;
     if (!c.rest_factor) c.rest_factor = std::make_shared<FemRestFactor>();
     c.factor_diagonal.resize(c.mass.size());
-    for (std::size_t i = 0; i < c.mass.size(); ++i) c.factor_diagonal[i] = c.mass[i] + s.m_scale * b.p.mass[i];
-    return c.rest_factor->prepare(s, c.factor_diagonal, s.k_scale, c.pinned);
+    c.factor_fixed.clear();  // capacity n after the first step: no allocation
+    for (std::size_t i = 0; i < c.mass.size(); ++i) {
+        c.factor_diagonal[i] = c.mass[i] + s.m_scale * b.p.mass[i];
+        if (b.p.inv_mass[i] == 0) c.factor_fixed.push_back(std::uint32_t(i));
+    }
+    return c.rest_factor->prepare(s, c.factor_diagonal, s.k_scale, c.factor_fixed);
 }
 
 }  // namespace

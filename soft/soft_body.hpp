@@ -105,7 +105,8 @@ struct SoftBodyDef {
     std::vector<std::uint32_t> triangles;   ///< 3 per triangle, counter-clockwise seen from outside
     /// Tetrahedral FEM (soft/tet_mesh.hpp): 4 (or 10, see tet_order) particles per tet, positively oriented, the positions the
     /// rest shape. A body with tets is an FEM body: its elements are a force model of the force-based
-    /// methods (explicit, semi-implicit, implicit); `triangles` should be its boundary (the builder sets it).
+    /// methods (explicit, semi-implicit, implicit), and fast-ms steps linear ones by projective dynamics;
+    /// `triangles` should be its boundary (the builder sets it).
     std::vector<std::uint32_t> tets;
     /// FEM: 1 for linear tets (4 particles each), 2 for quadratic tets (10 each: the corners, then the
     /// midpoints of the edges (0 1) (1 2) (0 2) (0 3) (1 3) (2 3); soft/tet_mesh.hpp), which bend without

@@ -60,10 +60,11 @@ SoftBodyDef make_icosphere(const Vec3& centre, Real radius, int subdivisions, Re
 SoftBodyDef make_mesh_body(const std::vector<Vec3>& vertices, const std::vector<std::uint32_t>& indices,
                            int link_distance, Real total_mass, const LinkMaterial& m, SoftBodyDef base = {});
 
-/// An FEM body from a tet mesh (soft/tet_mesh.hpp): the mesh is checked (check_tet_mesh), its nodes become
-/// the particles with lumped masses ρ V / 4 from base.fem.density, its tets the elements, its boundary the
-/// surface triangles. The method must be force-based (explicit, semi-implicit or implicit: set
-/// base.method, whose default, Verlet, create_body refuses for tets).
+/// An FEM body from a tet mesh (soft/tet_mesh.hpp), linear or quadratic (mesh.order): the mesh is checked
+/// (check_tet_mesh), its nodes become the particles with lumped masses from base.fem.density (lumped_masses),
+/// its tets the elements, its boundary the surface triangles. The method must be force-based (explicit,
+/// semi-implicit or implicit) or fast-ms (projective dynamics, linear tets): set base.method, whose
+/// default, Verlet, create_body refuses for tets.
 SoftBodyDef make_tet_body(const TetMesh& mesh, SoftBodyDef base = {});
 
 }  // namespace sinew

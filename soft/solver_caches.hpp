@@ -65,6 +65,7 @@ struct ImplicitEulerCache {
     /// built with (mass, drag and mass damping).
     std::shared_ptr<FemRestFactor> rest_factor;
     std::vector<Real> factor_diagonal;
+    std::vector<std::uint32_t> factor_fixed;  ///< its identity rows: the particles with inverse mass 0
 
     // Statistics of the last step (benchmarks and tests read them).
     int cg_iterations = 0;      ///< CG iterations used

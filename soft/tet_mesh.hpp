@@ -80,7 +80,8 @@ TetMesh load_tetgen(const std::string& node_path, const std::string& ele_path);
 /// are skipped; unused nodes are dropped). Throws SoftError naming the file and line.
 TetMesh load_gmsh(const std::string& path);
 
-/// Writes `mesh` as TetGen's .node and .ele files (0-based, the orientation this file uses); throws
+/// Writes `mesh` as TetGen's .node and .ele files (0-based, the orientation this file uses; quadratic tets
+/// with their 10 nodes, which load_tetgen reads back as corners); throws
 /// SoftError naming a file that cannot be written.
 void save_tetgen(const TetMesh& mesh, const std::string& node_path, const std::string& ele_path);
 

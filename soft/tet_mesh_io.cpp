@@ -145,11 +145,15 @@ void save_tetgen(const TetMesh& mesh, const std::string& node_path, const std::s
     node.precision(std::numeric_limits<Real>::max_digits10);  // round-trips exactly
     for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
         node << i << " " << mesh.nodes[i].x() << " " << mesh.nodes[i].y() << " " << mesh.nodes[i].z() << "\n";
+    // Quadratic tets are written with their 10 nodes (corners first); load_tetgen reads their corners back.
+    const std::size_t per = std::size_t(tet_nodes(mesh.order));
     ele << "# written by Sinew: <tetrahedra> <nodes per tet> <attributes>; (b-a).((c-a)x(d-a)) > 0\n"
-        << mesh.tet_count() << " 4 0\n";
-    for (std::size_t e = 0; e < mesh.tet_count(); ++e)
-        ele << e << " " << mesh.tets[4 * e] << " " << mesh.tets[4 * e + 1] << " " << mesh.tets[4 * e + 2] << " " << mesh.tets[4 * e + 3]
-            << "\n";
+        << mesh.tet_count() << " " << per << " 0\n";
+    for (std::size_t e = 0; e < mesh.tet_count(); ++e) {
+        ele << e;
+        for (std::size_t k = 0; k < per; ++k) ele << " " << mesh.tets[per * e + k];
+        ele << "\n";
+    }
     if (!node.flush() || !ele.flush()) throw SoftError(node_path + ": writing failed");
 }
 

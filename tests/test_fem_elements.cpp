@@ -465,6 +465,21 @@ TEST_CASE("Quadratic patch test: pure bending on the boundary is reproduced insi
     }
 }
 
+TEST_CASE("A new material changes a quadratic body's stiffness", "[fem][quadratic]") {
+    // The forces of a stretched quadratic block are linear in E: doubling E through set_fem_material
+    // (which rebuilds the kept 55 blocks per element) doubles them.
+    const TetMesh mesh = make_quadratic(make_tet_box(Vec3::Zero(), Vec3(1, 1, 1), 2, 2, 2));
+    FemBody f(mesh, material(1e5, 0.3, FemRotation::Polar));
+    for (Vec3& x : f.b().p.x) x.x() *= Real(1.01);
+    const Real before = max_force(f);
+    FemMaterial stiffer = f.b().def.fem;
+    stiffer.young = 2e5;
+    set_fem_material(f.b(), stiffer);
+    const Real after = max_force(f);
+    INFO("largest force at E = 1e5: " << before << " N, at 2e5: " << after << " N");
+    CHECK(after == Approx(2 * before).epsilon(1e-4));
+}
+
 TEST_CASE("The rest-factor preconditioner gives block Jacobi's motion in a few iterations, factored once", "[fem][quadratic]") {
     // A soft clamped beam (E = 1e6 Pa) swinging down through a large bend: the element rotations leave
     // the rest shape far behind, which the factor follows only through its node rotations; CG repairs the
@@ -553,6 +568,14 @@ TEST_CASE("Projective dynamics refuses quadratic tets and plasticity", "[fem][pd
     d.fem.max_plastic = Real(0.1);
     CHECK_THROWS_WITH(sys.create_body(make_tet_body(linear, d)), Catch::Contains("plasticity needs a force-based method"));
     CHECK(sys.body_count() == 0);
+    // Nor may a material set later make it plastic.
+    d.fem = FemMaterial{};
+    const SoftBodyId id = sys.create_body(make_tet_body(linear, d));
+    FemMaterial plastic = d.fem;
+    plastic.creep = 1;
+    plastic.max_plastic = Real(0.1);
+    CHECK_THROWS_WITH(set_fem_material(sys.body(id), plastic), Catch::Contains("plasticity needs a force-based method"));
+    CHECK_FALSE(sys.body(id).def.fem.plastic());
 }
 
 namespace {

@@ -618,6 +618,9 @@ sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fe
         const FemMaterial m = fem_material(*material);
         if (m.plastic() && b.fem->order != 1)
             return invalid(fn, "material->creep and max_plastic > 0 ask for plasticity, which needs linear tets; this body's are quadratic");
+        if (m.plastic() && !is_force_based(b.def.method))
+            return invalid(fn, "material->creep and max_plastic > 0 ask for plasticity, which needs a force-based method, not "
+                               "SINEW_SOFT_FAST_MS (projective dynamics)");
         set_fem_material(b, m);  // checked above: does not throw
         t.world->soft().wake(t.body);
         return SINEW_OK;

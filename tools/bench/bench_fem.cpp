@@ -62,6 +62,7 @@ FemScene fem_scene(const std::string& name, const std::string& scene_dir, int re
     if (body.builder == "tet-box") {
         s.mesh = make_tet_box(box.min_corner, box.size, box.cells[0] * refinement, box.cells[1] * refinement,
                               box.cells[2] * refinement, box.split == 6 ? HexSplit::Six : HexSplit::Five);
+        if (body.def.tet_order == 2) s.mesh = make_quadratic(s.mesh);  // a scene of quadratic tets
     } else {
         if (refinement != 1) fail("a tet-mesh body cannot be refined");
         if (!body.def.pinned.empty()) fail("a tet-mesh body may not be pinned");

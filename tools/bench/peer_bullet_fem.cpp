@@ -10,6 +10,7 @@
 // contacts against a static ground box by signed distance (Bullet's deformable demos' flags). Sleeping is
 // off on both sides so the timings measure the solver.
 #include <btBulletDynamicsCommon.h>
+#include <stdexcept>
 #include <BulletSoftBody/btDeformableBodySolver.h>
 #include <BulletSoftBody/btDeformableGravityForce.h>
 #include <BulletSoftBody/btDeformableLinearElasticityForce.h>
@@ -90,6 +91,7 @@ FemRun run_bullet_fem(const FemScene& s, int steps, BenchClock clock) {
     for (const std::uint32_t i : s.pinned) m[int(i)] = 0;  // inverse mass 0: fixed
     bw.body = std::make_unique<btSoftBody>(&info, int(n), &x[0], &m[0]);
     btSoftBody& b = *bw.body;
+    if (s.mesh.order != 1) throw std::runtime_error("Bullet's deformable bodies take linear (4-node) tets only");
     for (std::size_t e = 0; e < s.mesh.tet_count(); ++e) {
         const std::uint32_t* t = &s.mesh.tets[4 * e];
         const int a = int(t[0]), c = int(t[1]), d = int(t[2]), f = int(t[3]);
