@@ -137,7 +137,8 @@ void FemRestFactor::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
     }
     ldlt_solve_in_place<1>(f.ldlt.matrixL().nestedExpression(), f.inv_d, w);
     for (std::size_t i = 0; i < n; ++i) {
-        const Vec3 local(Real(w[f.permutation[3 * i]]), Real(w[f.permutation[3 * i + 1]]), Real(w[f.permutation[3 * i + 2]]));
+        const Vec3 local{static_cast<Real>(w[f.permutation[3 * i]]), static_cast<Real>(w[f.permutation[3 * i + 1]]),
+                         static_cast<Real>(w[f.permutation[3 * i + 2]])};
         z[i] = f.node_rotation[i] * local;
     }
 }
