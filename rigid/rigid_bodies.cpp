@@ -390,7 +390,12 @@ void RigidSystem::set_material(BodyId id, const Material& m) {
 Vec3 RigidSystem::local_center(BodyId id) const { check(id, "local_center"); return local_com_[id.index]; }
 const Mat3& RigidSystem::inertia_local(BodyId id) const { check(id, "inertia_local"); return inertia_local_[id.index]; }
 bool RigidSystem::is_sensor(BodyId id) const { check(id, "is_sensor"); return sensor_[id.index] != 0; }
-bool RigidSystem::is_bullet(BodyId id) const { check(id, "is_bullet"); return bullet_[id.index] != 0; }
+bool RigidSystem::is_bullet(BodyId id) const {
+    // A bullet turned static or kinematic by set_type is not one (a saved scene must not say it is); the
+    // flag is kept for when it turns dynamic again, as Box2D keeps isBullet.
+    check(id, "is_bullet");
+    return bullet_[id.index] != 0 && type_[id.index] == BodyType::Dynamic;
+}
 void RigidSystem::set_bullet(BodyId id, bool bullet) {
     check(id, "set_bullet");
     bullet_[id.index] = bullet && type_[id.index] == BodyType::Dynamic ? 1 : 0;

@@ -59,12 +59,6 @@ namespace {
 
 constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
 
-// The shape-function gradients g_0..g_3 of element e: the rows of D_m⁻¹, g_0 = -(g_1 + g_2 + g_3).
-void element_gradients(const FemState& s, std::size_t e, Vec3 (&g)[4]) {
-    for (int k = 1; k < 4; ++k) g[k] = s.dm_inv[e].row(k - 1).transpose();
-    g[0] = -(g[1] + g[2] + g[3]);
-}
-
 // Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
 double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
 double volume_weight(const FemState& s, std::size_t e) { return 3.0 * double(s.lambda) * double(s.volume[e]); }
@@ -89,7 +83,7 @@ void add_tet_projections(SoftBody& b, FastMassSpringCache& c) {
         const Mat3 volume_target = det > 0 ? Mat3(F * Real(std::cbrt(1.0 / double(det)))) : R;
         const Mat3 T = Real(shape_weight(s, e)) * R + Real(volume_weight(s, e)) * volume_target;
         Vec3 g[4];
-        element_gradients(s, e, g);
+        shape_gradients(s.dm_inv[e], g);
         for (int a = 0; a < 4; ++a) {
             const int r = c.row[tet[a]];
             if (r < 0) continue;
@@ -149,7 +143,7 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
             for (std::size_t e = 0; e < s.size(); ++e) {
                 const std::uint32_t* tet = &s.tets[4 * e];
                 Vec3 g[4];
-                element_gradients(s, e, g);
+                shape_gradients(s.dm_inv[e], g);
                 const double w = tet_weight(s, e);
                 for (int a = 0; a < 4; ++a)
                     for (int c2 = 0; c2 < 4; ++c2) {
@@ -273,7 +267,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
             bool mixed = false;
             for (int a = 0; a < 4; ++a) mixed = mixed || c.row[tet[a]] < 0;
             if (!mixed) continue;
-            element_gradients(s, e, g);
+            shape_gradients(s.dm_inv[e], g);
             const double w = tet_weight(s, e);
             for (int a = 0; a < 4; ++a) {
                 const int ra = c.row[tet[a]];

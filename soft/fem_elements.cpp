@@ -79,16 +79,27 @@ Mat3 inverted_rotation(const Mat3& F) {
     return (U * V.transpose()).cast<Real>();
 }
 
+std::string fem_method_problem(const FemMaterial& m, SoftMethod method, int order) {
+    if (order != 1 && order != 2) return "tet_order = " + std::to_string(order) + " must be 1 (linear tets) or 2 (quadratic tets)";
+    if (!accepts_tets(method))
+        return std::string("tets need a force-based method (explicit, semi-implicit or implicit) or fast-ms (projective "
+                           "dynamics), got ") + soft_method_name(method);
+    if (method == SoftMethod::FastMassSpring && order != 1) return "fast-ms (projective dynamics) needs linear tets (tet_order 1)";
+    if (m.plastic() && order != 1)
+        return "plasticity (creep and max_plastic > 0) needs linear tets: these are quadratic, and a quadratic tet's strain "
+               "varies inside it";
+    if (m.plastic() && !is_force_based(method))
+        return std::string("plasticity needs a force-based method (explicit, semi-implicit or implicit), not ") + soft_method_name(method);
+    return {};
+}
+
 void set_fem_material(SoftBody& b, const FemMaterial& m) {
     if (!b.fem) throw SoftError("set_fem_material: the soft body has no tets (it is not an FEM solid)");
     const std::string bad = fem_material_problem(m, "set_fem_material: material.");
     if (!bad.empty()) throw SoftError(bad);
     FemState& s = *b.fem;
-    if (m.plastic() && s.order != 1)
-        throw SoftError("set_fem_material: plasticity needs linear tets (order 1); this body's tets are quadratic");
-    if (m.plastic() && !is_force_based(b.def.method))
-        throw SoftError(std::string("set_fem_material: plasticity needs a force-based method (explicit, semi-implicit or "
-                                    "implicit), not ") + soft_method_name(b.def.method));
+    const std::string unfit = fem_method_problem(m, b.def.method, s.order);
+    if (!unfit.empty()) throw SoftError("set_fem_material: " + unfit);
     // What allocates (and may throw) runs before anything changes: the masses, a quadratic body's blocks.
     std::vector<Real> mass;
     if (m.density != b.def.fem.density) mass = lumped_masses(s.rest, s.tets, m.density, s.order);

@@ -21,6 +21,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "soft/block_sparse.hpp"
@@ -62,6 +63,21 @@ struct FemState {
     std::size_t size() const { return volume.size(); }
     int nodes_per_tet() const { return order == 2 ? 10 : 4; }
 };
+
+/// The shape-function gradients g_0..g_3 of a tet's corners: the rows of D_m⁻¹, g_0 = -(g_1 + g_2 + g_3).
+inline void shape_gradients(const Mat3& dm_inv, Vec3 (&g)[4]) {
+    for (int k = 1; k < 4; ++k) g[k] = dm_inv.row(k - 1).transpose();
+    g[0] = -(g[1] + g[2] + g[3]);
+}
+
+/// Index of block (a, c), a <= c, among a quadratic element's 55 kept blocks (FemState::quad_stiffness).
+constexpr int quadratic_pair_index(int a, int c) { return a * 10 - a * (a - 1) / 2 + (c - a); }
+
+enum class SoftMethod : std::uint8_t;  // soft/soft_body.hpp
+/// "" if an FEM body of `order` tets (1 or 2) with material m may be stepped by `method`, else why: tets
+/// need a force-based method or fast-ms (projective dynamics, linear tets only); plasticity needs linear
+/// tets and a force-based method. The one check create_body, set_fem_material and the C API share.
+std::string fem_method_problem(const FemMaterial& m, SoftMethod method, int order);
 
 /// Rest data of a body's elements of `order` from its rest positions (validated by the caller: positive
 /// volumes, and straight edges for quadratic tets).

@@ -27,9 +27,6 @@ namespace sinew {
 
 namespace {
 
-// Index of the block (a, c), a <= c, among an element's 55.
-constexpr int pair_index(int a, int c) { return a * 10 - a * (a - 1) / 2 + (c - a); }
-
 // The corners (i, j) of node a when a is an edge node; a corner has i == j == a.
 void node_corners(int a, int& i, int& j) {
     if (a < 4) {
@@ -66,7 +63,7 @@ std::vector<Mat3> quadratic_rest_stiffness(const FemState& s, Real lame_lambda, 
             }
             for (int r = 0; r < 10; ++r)
                 for (int c = r; c < 10; ++c)
-                    K[pair_index(r, c)] += w * (lambda * grad[r] * grad[c].transpose() + mu * grad[c] * grad[r].transpose() +
+                    K[quadratic_pair_index(r, c)] += w * (lambda * grad[r] * grad[c].transpose() + mu * grad[c] * grad[r].transpose() +
                                                 mu * grad[r].dot(grad[c]) * Eigen::Matrix3d::Identity());
         }
         for (int k = 0; k < 55; ++k) out[55 * e + std::size_t(k)] = K[k].cast<Real>();
@@ -76,10 +73,8 @@ std::vector<Mat3> quadratic_rest_stiffness(const FemState& s, Real lame_lambda, 
 
 Mat3 quadratic_mean_gradient(const FemState& s, std::size_t e, const std::vector<Vec3>& x) {
     const std::uint32_t* t = &s.tets[10 * e];
-    const Mat3& di = s.dm_inv[e];
     Vec3 g[4];
-    for (int k = 1; k < 4; ++k) g[k] = di.row(k - 1).transpose();
-    g[0] = -(g[1] + g[2] + g[3]);
+    shape_gradients(s.dm_inv[e], g);
     Mat3 F = Mat3::Zero();
     for (int k = 0; k < 6; ++k) F.noalias() += x[t[4 + k]] * (g[kTetEdges[k][0]] + g[kTetEdges[k][1]]).transpose();
     return F;
@@ -97,9 +92,9 @@ void quadratic_add_force(const FemState& s, std::size_t e, const Mat3& R, const 
     Vec3 g[10];
     for (int a = 0; a < 10; ++a) g[a].setZero();
     for (int a = 0; a < 10; ++a) {
-        g[a].noalias() += K[pair_index(a, a)] * u[a];
+        g[a].noalias() += K[quadratic_pair_index(a, a)] * u[a];
         for (int c = a + 1; c < 10; ++c) {
-            const Mat3& k = K[pair_index(a, c)];
+            const Mat3& k = K[quadratic_pair_index(a, c)];
             g[a].noalias() += k * u[c];
             g[c].noalias() += k.transpose() * u[a];
         }
@@ -113,7 +108,7 @@ void quadratic_assemble(FemState& s, std::size_t e, const Mat3& R) {
     Mat3* blocks = s.stiffness.block.data();
     for (int a = 0; a < 10; ++a)
         for (int c = a; c < 10; ++c) {
-            const Mat3 k = R * K[pair_index(a, c)] * R.transpose();
+            const Mat3 k = R * K[quadratic_pair_index(a, c)] * R.transpose();
             blocks[slot[10 * a + c]] += k;
             if (c != a) blocks[slot[10 * c + a]] += k.transpose();
         }
@@ -128,8 +123,8 @@ double quadratic_energy(const FemState& s, const std::vector<Vec3>& x) {
         Eigen::Vector3d u[10];
         for (int c = 0; c < 10; ++c) u[c] = (R.transpose() * x[t[c]] - s.rest[t[c]]).cast<double>();
         for (int a = 0; a < 10; ++a) {
-            energy += 0.5 * u[a].dot(K[pair_index(a, a)].cast<double>() * u[a]);
-            for (int c = a + 1; c < 10; ++c) energy += u[a].dot(K[pair_index(a, c)].cast<double>() * u[c]);
+            energy += 0.5 * u[a].dot(K[quadratic_pair_index(a, a)].cast<double>() * u[a]);
+            for (int c = a + 1; c < 10; ++c) energy += u[a].dot(K[quadratic_pair_index(a, c)].cast<double>() * u[c]);
         }
     }
     return energy;

@@ -11,20 +11,16 @@ namespace sinew {
 
 namespace {
 
-constexpr int pair_index(int a, int c) { return a * 10 - a * (a - 1) / 2 + (c - a); }
-
 // Block (a, c) of element e's rest stiffness K_e.
 Eigen::Matrix3d rest_block(const FemState& s, std::size_t e, int a, int c) {
     if (s.order == 2) {
         const Mat3* K = &s.quad_stiffness[55 * e];
-        return a <= c ? K[pair_index(a, c)].cast<double>() : Eigen::Matrix3d(K[pair_index(c, a)].cast<double>().transpose());
+        return a <= c ? K[quadratic_pair_index(a, c)].cast<double>()
+                      : Eigen::Matrix3d(K[quadratic_pair_index(c, a)].cast<double>().transpose());
     }
-    const Eigen::Matrix3d di = s.dm_inv[e].cast<double>();
-    const auto g = [&](int k) -> Eigen::Vector3d {
-        if (k > 0) return di.row(k - 1).transpose();
-        return -(di.row(0) + di.row(1) + di.row(2)).transpose();
-    };
-    const Eigen::Vector3d ga = g(a), gc = g(c);
+    Vec3 g[4];
+    shape_gradients(s.dm_inv[e], g);
+    const Eigen::Vector3d ga = g[a].cast<double>(), gc = g[c].cast<double>();
     const double V = double(s.volume[e]), lambda = double(s.lambda), mu = double(s.mu);
     return V * (lambda * ga * gc.transpose() + mu * gc * ga.transpose() + mu * ga.dot(gc) * Eigen::Matrix3d::Identity());
 }

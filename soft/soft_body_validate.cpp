@@ -4,6 +4,7 @@
 #include <string>
 
 #include "engine/core/format.hpp"
+#include "soft/fem_elements.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/tet_mesh.hpp"
 
@@ -83,21 +84,12 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (d.tets.empty() && (!d.rest_positions.empty() || !d.plastic_strain.empty()))
         fail("rest_positions and plastic_strain belong to FEM bodies, and this one has no tets");
     if (!d.tets.empty()) {
-        if (!accepts_tets(d.method))
-            fail(std::string("tets need a force-based method (explicit, semi-implicit or implicit) or fast-ms (projective "
-                             "dynamics), got ") + soft_method_name(d.method));
-        if (d.method == SoftMethod::FastMassSpring && d.tet_order != 1)
-            fail("fast-ms (projective dynamics) needs linear tets (tet_order 1)");
-        if (d.method == SoftMethod::FastMassSpring && d.fem.plastic())
-            fail("plasticity needs a force-based method (explicit, semi-implicit or implicit), not fast-ms");
         const std::string bad = fem_material_problem(d.fem, "fem.");
         if (!bad.empty()) fail(bad);
+        const std::string unfit = fem_method_problem(d.fem, d.method, d.tet_order);
+        if (!unfit.empty()) fail(unfit);
         if (!d.rest_positions.empty() && d.rest_positions.size() != n)
             fail("rest_positions has " + std::to_string(d.rest_positions.size()) + " entries for " + std::to_string(n) + " positions");
-        if (d.tet_order != 1 && d.tet_order != 2)
-            fail("tet_order = " + std::to_string(d.tet_order) + " must be 1 (linear tets) or 2 (quadratic tets)");
-        if (d.tet_order == 2 && d.fem.plastic())
-            fail("plasticity needs linear tets (tet_order 1): a quadratic tet's strain varies inside it");
         check_tet_mesh(d.rest_positions.empty() ? d.positions : d.rest_positions, d.tets, "soft body: tets", d.tet_order);
         const std::size_t count = d.tets.size() / std::size_t(tet_nodes(d.tet_order));
         if (!d.plastic_strain.empty() && d.plastic_strain.size() != count)

@@ -608,6 +608,12 @@ TEST_CASE("a bullet stops at a free dynamic wall under the Newtonian solver", "[
         ball.bullet = bullet;
         const BodyId id = world.rigid().create_body(ball);
         CHECK(world.rigid().is_bullet(id) == bullet);
+        // Turned static it is no bullet (a saved scene would be refused), dynamic again it is one.
+        world.rigid().set_type(id, BodyType::Static);
+        CHECK_FALSE(world.rigid().is_bullet(id));
+        world.rigid().set_type(id, BodyType::Dynamic);
+        world.rigid().set_velocity(id, Vec3(300, 0, 0), Vec3::Zero());
+        CHECK(world.rigid().is_bullet(id) == bullet);
         double max_x = 0;
         for (int i = 0; i < 30; ++i) {
             world.step();

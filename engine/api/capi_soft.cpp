@@ -616,11 +616,8 @@ sinew_status sinew_soft_set_fem_material(sinew_soft_body_id body, const sinew_fe
         SoftBody& b = t.world->soft().body(t.body);
         if (!b.fem) return invalid(fn, "the soft body has no tets (it is not an FEM solid)");
         const FemMaterial m = fem_material(*material);
-        if (m.plastic() && b.fem->order != 1)
-            return invalid(fn, "material->creep and max_plastic > 0 ask for plasticity, which needs linear tets; this body's are quadratic");
-        if (m.plastic() && !is_force_based(b.def.method))
-            return invalid(fn, "material->creep and max_plastic > 0 ask for plasticity, which needs a force-based method, not "
-                               "SINEW_SOFT_FAST_MS (projective dynamics)");
+        const std::string unfit = fem_method_problem(m, b.def.method, b.fem->order);
+        if (!unfit.empty()) return invalid(fn, unfit);
         set_fem_material(b, m);  // checked above: does not throw
         t.world->soft().wake(t.body);
         return SINEW_OK;

@@ -6,6 +6,7 @@
 #include "engine/world/scene_json.hpp"
 #include "soft/soft_builders.hpp"
 #include "soft/soft_integrators.hpp"
+#include "soft/fem_elements.hpp"
 #include "soft/tet_mesh.hpp"
 
 namespace sinew::scene_json {
@@ -388,8 +389,10 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         if (out.def.preconditioner == SoftPreconditioner::RestFactor &&
             (out.def.tets.empty() || out.def.method != SoftMethod::ImplicitEuler))
             b.get("solver").get("preconditioner").fail("rest-factor is for FEM bodies (tets) under the implicit method");
-        if (out.def.tet_order == 2 && out.def.fem.plastic())
-            b.get("fem").fail("plasticity (creep and max_plastic > 0) needs linear tets: this body's tets are quadratic (order 2)");
+        if (!out.def.tets.empty()) {
+            const std::string unfit = fem_method_problem(out.def.fem, out.def.method, out.def.tet_order);
+            if (!unfit.empty()) (b.find("fem") ? b.get("fem") : b).fail(unfit);
+        }
         const std::size_t n = out.def.positions.size();
         if (auto pins = b.find("pinned")) {
             for (std::size_t i = 0; i < pins->array_size(); ++i) {
