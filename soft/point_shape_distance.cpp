@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "soft/particle_collision.hpp"
+#include "soft/triangle_closest.hpp"
 
 namespace sinew {
 namespace {
@@ -15,27 +16,6 @@ Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
     const Real len2 = ab.squaredNorm();
     const Real t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, Real(0), Real(1)) : Real(0);
     return a + t * ab;
-}
-
-// Ericson, Real-Time Collision Detection §5.1.5 (Voronoi regions of a triangle).
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-    const Vec3 ab = b - a, ac = c - a, ap = p - a;
-    const Real d1 = ab.dot(ap), d2 = ac.dot(ap);
-    if (d1 <= 0 && d2 <= 0) return a;
-    const Vec3 bp = p - b;
-    const Real d3 = ab.dot(bp), d4 = ac.dot(bp);
-    if (d3 >= 0 && d4 <= d3) return b;
-    const Real vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-    const Vec3 cp = p - c;
-    const Real d5 = ab.dot(cp), d6 = ac.dot(cp);
-    if (d6 >= 0 && d5 <= d6) return c;
-    const Real vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-    const Real va = d3 * d6 - d5 * d4;
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-    const Real denom = Real(1) / (va + vb + vc);
-    return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
 // A query in the shape's local frame.

@@ -172,6 +172,7 @@ struct SoftBody {
     std::vector<LongRangeAttachment> lra;
     std::vector<Attachment> attachments;
     Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
+    bool closed_surface = false;  ///< the triangles close a volume (soft-soft contacts know inside from outside)
     /// Per particle, the contact the last step's contact pass found: its unit normal (zero: none) and the
     /// collider's velocity along it there (m/s). Implicit Euler holds these particles' normal velocity
     /// in its solve (Baraff & Witkin 1998's constraint filter); empty until the first contact pass.

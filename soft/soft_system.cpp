@@ -61,6 +61,7 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     b.triangles = std::move(def.triangles);
     b.attachments = std::move(def.attachments);
     b.rest_volume = b.triangles.empty() ? Real(0) : std::max(Real(0), enclosed_volume(b.triangles, b.p.x));
+    b.closed_surface = SoftContactPass::closed_surface(b.triangles);
     def.positions.clear();
     def.positions.shrink_to_fit();
     def.masses.clear();
@@ -373,7 +374,43 @@ void SoftSystem::begin_step(SoftBody& b, Real h) {
     p.x = p.x_prev;
 }
 
+void SoftSystem::wake_touched_by_soft_bodies(Real h) {
+    // A sleeping body wakes when a stepping soft body that may touch it (SoftContactPass::may_touch)
+    // reaches its box this step moving faster than the sleep speed; it then takes this step's forces.
+    bool any_asleep = false;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        any_asleep |= slots_.alive(s) && !bodies_[s].stepping && !(s < faulted_.size() && faulted_[s]);
+    if (!any_asleep) return;
+    moving_boxes_.assign(bodies_.size(), Aabb());
+    for (std::uint32_t t = 0; t < bodies_.size(); ++t) {
+        if (!slots_.alive(t) || !bodies_[t].stepping) continue;
+        const Particles& p = bodies_[t].p;
+        Aabb box;
+        Real travel2 = 0;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            box.grow(p.x[i]);
+            box.grow(p.x_next[i]);
+            travel2 = std::max(travel2, (p.x_next[i] - p.x[i]).squaredNorm());
+        }
+        if (std::sqrt(travel2) > settings_.sleep_velocity * h) moving_boxes_[t] = box.fattened(bodies_[t].def.thickness);
+    }
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!slots_.alive(s) || bodies_[s].stepping || (s < faulted_.size() && faulted_[s])) continue;
+        SoftBody& b = bodies_[s];
+        const Aabb box = bounds(s);
+        for (std::uint32_t t = 0; t < bodies_.size(); ++t) {
+            if (!moving_boxes_[t].valid() || !moving_boxes_[t].overlaps(box) ||
+                !SoftContactPass::may_touch(bodies_[t], b))
+                continue;
+            b.sleep_timer = 0;
+            begin_step(b, h);
+            break;
+        }
+    }
+}
+
 void SoftSystem::detect_collisions(Real h) {
+    wake_touched_by_soft_bodies(h);
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;
         SoftBody& b = bodies_[s];
@@ -409,6 +446,12 @@ void SoftSystem::solve_velocities(Real h) {
         p.v_solved = p.v;
         p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
     }
+    // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
+    contact_entries_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && !(s < faulted_.size() && faulted_[s]))
+            contact_entries_.push_back({s, &bodies_[s], bodies_[s].stepping});
+    soft_contacts_.run(contact_entries_, h);
 }
 
 const ParticleCollision* SoftSystem::collision(std::uint32_t slot) const {

@@ -24,6 +24,7 @@
 #include "engine/core/step_fault.hpp"
 #include "engine/core/task_system.hpp"
 #include "soft/soft_body.hpp"
+#include "soft/soft_contacts.hpp"
 
 namespace sinew {
 
@@ -116,6 +117,8 @@ public:
     void change_predicted_velocity(std::uint32_t slot, std::uint32_t i, const Vec3& dv, Real h);
     /// Particle contacts found in the last step, body slot order.
     const std::vector<ParticleContact>& contacts() const { return contacts_; }
+    /// Contacts between soft bodies in the last (sub-)step (soft/soft_contacts.hpp).
+    const std::vector<SoftSoftContact>& soft_contacts() const { return soft_contacts_.contacts(); }
     /// Bodies whose particles were not finite at the end of the last step: each was put back where the
     /// step found it, at rest (engine/core/step_fault.hpp).
     const std::vector<StepFault>& faults() const { return faults_; }
@@ -135,6 +138,8 @@ private:
     static constexpr std::size_t kParallelParticles = 2048;
     void begin_step(SoftBody& b, Real h);
     void detect_collisions(Real h);
+    /// DetectCollisions: sleeping bodies a moving soft body reaches wake and take this step's forces.
+    void wake_touched_by_soft_bodies(Real h);
     void solve_velocities(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
@@ -155,6 +160,9 @@ private:
     std::vector<StepFault> faults_;
     std::vector<std::uint8_t> faulted_;  ///< by slot: put back this step (contain_non_finite), sits out its sub-steps
     std::vector<ParticleCollision> collision_;  ///< by slot: the colliders each body may touch this step
+    SoftContactPass soft_contacts_;
+    std::vector<SoftContactPass::Entry> contact_entries_;
+    std::vector<Aabb> moving_boxes_;  ///< by slot, scratch of wake_touched_by_soft_bodies
     const TaskSystem* tasks_ = nullptr;
     ParallelRegion region_;
 };

@@ -1,0 +1,352 @@
+// Soft-soft contacts: particles against the other body's triangles (Bridson, Fedkiw & Anderson 2002),
+// found once per step on the predicted positions through a hash grid of each body's triangles and
+// resolved by Gauss-Seidel sweeps of shared impulses (soft_contacts.hpp).
+#include "soft/soft_contacts.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "soft/triangle_closest.hpp"
+
+namespace sinew {
+namespace {
+
+// A contact is kept while its gap is below this fraction of the two thicknesses, so a resting pair does
+// not flicker in and out of contact between steps (as the particle-shape pass's slop).
+constexpr Real kSlop = Real(0.1);
+// Restitution acts above this approach speed only (m/s), as in the particle-shape pass and the rigid solvers.
+constexpr Real kRestitutionThreshold = Real(1);
+constexpr Real kTinyArea = Real(1e-12);  // m^2 x 2: a triangle this small has no normal
+// A closest point whose smallest barycentric weight is below this is on an edge or a corner.
+constexpr Real kFeatureTolerance = Real(1e-5);
+// Closest points nearer than this (m) are the same point (the triangles around an edge or a corner).
+constexpr Real kTieDistance = Real(1e-6);
+// Off an edge or a corner a particle is inside when the direction from the closest point makes more than
+// 120 degrees with the pseudo-normal there.
+constexpr Real kBehindCosine = Real(0.5);
+
+Vec3 triangle_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 n = (b - a).cross(c - a);
+    const Real len = n.norm();
+    return len > kTinyArea ? Vec3(n / len) : Vec3(Vec3::Zero());
+}
+
+std::int64_t cell_of(Real x, Real cell) { return static_cast<std::int64_t>(std::floor(x / cell)); }
+
+// 21 bits per axis: cells further apart than 2^21 share keys, which only adds candidates to test.
+std::uint64_t cell_key(std::int64_t i, std::int64_t j, std::int64_t k) {
+    const std::uint64_t m = (std::uint64_t(1) << 21) - 1;
+    return ((std::uint64_t(i) & m) << 42) | ((std::uint64_t(j) & m) << 21) | (std::uint64_t(k) & m);
+}
+
+}  // namespace
+
+struct SoftContactPass::Side {
+    std::uint32_t slot = 0;
+    SoftBody* b = nullptr;
+    bool stepping = false;
+    std::vector<Vec3>* x = nullptr;  ///< the positions the pass works on (x_next if stepping, else x)
+    Aabb box0;                       ///< of the positions at x_n, fattened by the thickness
+    Real travel = 0;                 ///< largest move of a particle from x_n to x (m)
+    bool closed = false;             ///< its triangles enclose a volume: inside is known
+    bool grid_built = false;
+    Real inv_mass(std::uint32_t i) const { return stepping ? b->p.inv_mass[i] : Real(0); }
+};
+
+bool SoftContactPass::may_touch(const SoftBody& a, const SoftBody& b) {
+    if (a.p.size() == 0 || b.p.size() == 0) return false;
+    if (a.triangles.empty() && b.triangles.empty()) return false;
+    if (a.meets_colliders_through_proxy || b.meets_colliders_through_proxy) return false;
+    return should_collide(a.def.filter, b.def.filter);
+}
+
+bool SoftContactPass::closed_surface(const std::vector<std::uint32_t>& triangles) {
+    if (triangles.empty()) return false;
+    // Closed (a 2-manifold without boundary): every edge is shared by exactly two triangles.
+    std::vector<std::uint64_t> edges;
+    edges.reserve(triangles.size());
+    for (std::size_t t = 0; t + 2 < triangles.size(); t += 3)
+        for (int e = 0; e < 3; ++e) {
+            const std::uint64_t a = triangles[t + e], b = triangles[t + (e + 1) % 3];
+            edges.push_back(std::min(a, b) << 32 | std::max(a, b));
+        }
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t k = 0; k < edges.size();) {
+        std::size_t n = 1;
+        while (k + n < edges.size() && edges[k + n] == edges[k]) ++n;
+        if (n != 2) return false;
+        k += n;
+    }
+    return true;
+}
+
+void SoftContactPass::build_grid(Side& s, std::uint32_t entry, Real margin) {
+    Grid& g = grids_[entry];
+    const SoftBody& b = *s.b;
+    const std::vector<Vec3>& x = b.p.x;  // contacts are found at the start of the step (detect)
+    Real largest = 0;
+    for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3) {
+        Aabb box;
+        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[t + k]]);
+        largest = std::max(largest, box.extent().maxCoeff());
+    }
+    // A fattened triangle box spans at most two cells per axis.
+    g.cell = std::max(largest + 2 * margin, Real(1e-6));
+    sort_scratch_.clear();
+    for (std::uint32_t t = 0; 3 * std::size_t(t) + 2 < b.triangles.size(); ++t) {
+        Aabb box;
+        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[3 * t + k]]);
+        box = box.fattened(margin);
+        const std::int64_t i0 = cell_of(box.lo.x(), g.cell), i1 = cell_of(box.hi.x(), g.cell);
+        const std::int64_t j0 = cell_of(box.lo.y(), g.cell), j1 = cell_of(box.hi.y(), g.cell);
+        const std::int64_t k0 = cell_of(box.lo.z(), g.cell), k1 = cell_of(box.hi.z(), g.cell);
+        for (std::int64_t i = i0; i <= i1; ++i)
+            for (std::int64_t j = j0; j <= j1; ++j)
+                for (std::int64_t k = k0; k <= k1; ++k) sort_scratch_.push_back({cell_key(i, j, k), t});
+    }
+    std::sort(sort_scratch_.begin(), sort_scratch_.end());
+    g.keys.resize(sort_scratch_.size());
+    g.tris.resize(sort_scratch_.size());
+    for (std::size_t k = 0; k < sort_scratch_.size(); ++k) {
+        g.keys[k] = sort_scratch_[k].first;
+        g.tris[k] = sort_scratch_[k].second;
+    }
+    s.grid_built = true;
+}
+
+void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach) {
+    // The contact is found where the step started (x_n), where the two were last resolved, and enforced on
+    // the predicted positions: a particle that passes an edge of the other body within the step (two equal
+    // cubes stacked meet edge on edge) is still pushed back the way it came, not out through the face it
+    // now finds itself beside.
+    const Grid& g = grids_[eb];
+    const std::vector<Vec3>& xa0 = a.b->p.x;
+    const std::vector<Vec3>& xb0 = b.b->p.x;
+    const std::vector<Vec3>& xa = *a.x;
+    const std::vector<Vec3>& xb = *b.x;
+    const std::vector<std::uint32_t>& tri = b.b->triangles;
+    const Real rsum = a.b->def.thickness + b.b->def.thickness;
+    const Aabb near = b.box0.fattened(reach);
+    for (std::uint32_t i : surface_[ea]) {
+        const Vec3& x0 = xa0[i];
+        if (!near.contains(x0)) continue;
+        const std::uint64_t key = cell_key(cell_of(x0.x(), g.cell), cell_of(x0.y(), g.cell), cell_of(x0.z(), g.cell));
+        const auto range = std::equal_range(g.keys.begin(), g.keys.end(), key);
+        // The closest feature of the surface: the triangle whose closest point is nearest, a face
+        // interior winning a tie with the edges and corners it meets (its normal is the surface's there).
+        Real best = kRealMax;
+        std::uint32_t best_t = 0;
+        Vec3 best_w = Vec3::Zero();
+        bool best_face = false;
+        for (auto it = range.first; it != range.second; ++it) {
+            const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
+            const Vec3 w = closest_on_triangle_weights(x0, xb0[tri[3 * t]], xb0[tri[3 * t + 1]], xb0[tri[3 * t + 2]]);
+            const Vec3 on = w.x() * xb0[tri[3 * t]] + w.y() * xb0[tri[3 * t + 1]] + w.z() * xb0[tri[3 * t + 2]];
+            const Real d = (x0 - on).norm();
+            const bool face = w.minCoeff() > kFeatureTolerance;
+            const Real rank = face ? d - kTieDistance : d;
+            if (d >= reach || rank >= best) continue;
+            best = rank;
+            best_t = t;
+            best_w = w;
+            best_face = face;
+        }
+        if (best == kRealMax) continue;
+        const std::uint32_t* bt = &tri[3 * std::size_t(best_t)];
+        const Vec3 on0 = best_w.x() * xb0[bt[0]] + best_w.y() * xb0[bt[1]] + best_w.z() * xb0[bt[2]];
+        const Real d0 = (x0 - on0).norm();
+        const Vec3 face_n = triangle_normal(xb0[bt[0]], xb0[bt[1]], xb0[bt[2]]);
+        if (face_n.isZero()) continue;  // a degenerate triangle: no normal
+        Vec3 n;
+        if (d0 < kTieDistance) {
+            // On the surface: its normal, turned to the particle's side for an open one.
+            n = b.closed || face_n.dot(xa[i] - x0) <= 0 ? face_n : Vec3(-face_n);
+        } else if (!b.closed) {
+            // An open surface (cloth) has two sides: the particle is on the side it is on at x_n.
+            n = (x0 - on0) / d0;
+        } else if (best_face) {
+            // Outward normals (counter-clockwise from outside), so inside is known and a particle that
+            // went in is pushed back out, not through.
+            n = face_n;
+        } else {
+            // Off an edge or a corner: the direction from the closest point, on the side the angle-weighted
+            // pseudo-normal of the triangles around that point gives (Bærentzen & Aanæs 2005: the sign
+            // test that is exact there, where one triangle's normal is not). Behind only when clearly so:
+            // a particle level with a flat face's inner edge is beside its rim, outside.
+            Vec3 pseudo = Vec3::Zero();
+            for (auto it = range.first; it != range.second; ++it) {
+                const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
+                const Vec3& p0 = xb0[tri[3 * t]];
+                const Vec3& p1 = xb0[tri[3 * t + 1]];
+                const Vec3& p2 = xb0[tri[3 * t + 2]];
+                const Vec3 w = closest_on_triangle_weights(x0, p0, p1, p2);
+                if (((w.x() * p0 + w.y() * p1 + w.z() * p2) - on0).norm() > kTieDistance) continue;
+                // At a corner each triangle counts by its angle there; along an edge both count once.
+                Real weight = 1;
+                for (int k = 0; k < 3; ++k)
+                    if (w[k] > 1 - kFeatureTolerance) {
+                        const Vec3& o = xb0[tri[3 * t + k]];
+                        const Vec3 e1 = xb0[tri[3 * t + (k + 1) % 3]] - o, e2 = xb0[tri[3 * t + (k + 2) % 3]] - o;
+                        weight = std::atan2(e1.cross(e2).norm(), e1.dot(e2));
+                    }
+                pseudo += weight * triangle_normal(p0, p1, p2);
+            }
+            const Vec3 out = (x0 - on0) / d0;
+            const Real len = pseudo.norm();
+            n = len > 0 && pseudo.dot(out) < -kBehindCosine * len ? Vec3(-out) : out;
+        }
+        // The gap on the predicted positions, along the normal found at x_n.
+        const Vec3 on = best_w.x() * xb[bt[0]] + best_w.y() * xb[bt[1]] + best_w.z() * xb[bt[2]];
+        const Real gap = n.dot(xa[i] - on) - rsum;
+        if (gap >= rsum * kSlop) continue;
+        SoftSoftContact c;
+        c.body = a.slot;
+        c.particle = i;
+        c.other = b.slot;
+        c.triangle = best_t;
+        c.weights = best_w;
+        c.normal = n;
+        c.depth = std::max(Real(0), -gap);
+        // Restitution from the approach before the pass (as the rigid solvers' target velocity).
+        const std::vector<Vec3>& vb = b.b->p.v;
+        const Vec3 vt = best_w.x() * vb[bt[0]] + best_w.y() * vb[bt[1]] + best_w.z() * vb[bt[2]];
+        const Real vn0 = n.dot(a.b->p.v[i] - vt);
+        const Real e = std::max(a.b->def.restitution, b.b->def.restitution);
+        contacts_.push_back(c);
+        work_.push_back({ea, eb, vn0 < -kRestitutionThreshold ? -e * vn0 : Real(0), Real(0)});
+    }
+}
+
+void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
+    contacts_.clear();
+    work_.clear();
+    const std::size_t n = entries.size();
+    if (n < 2) return;
+    std::vector<Side> sides(n);
+    if (grids_.size() < n) grids_.resize(n);
+    if (surface_.size() < n) surface_.resize(n);
+    Real thickest = 0;
+    for (std::size_t e = 0; e < n; ++e) {
+        Side& s = sides[e];
+        s.slot = entries[e].slot;
+        s.b = entries[e].body;
+        s.stepping = entries[e].stepping;
+        s.x = s.stepping ? &s.b->p.x_next : &s.b->p.x;
+        s.closed = s.b->closed_surface;
+        Aabb box;
+        for (std::size_t i = 0; i < s.x->size(); ++i) {
+            box.grow(s.b->p.x[i]);
+            if (s.stepping) s.travel = std::max(s.travel, ((*s.x)[i] - s.b->p.x[i]).squaredNorm());
+        }
+        s.travel = std::sqrt(s.travel);
+        s.box0 = box.fattened(s.b->def.thickness);
+        thickest = std::max(thickest, s.b->def.thickness);
+        // The particles that can touch: those of its triangles (an FEM body's inner nodes cannot), or all.
+        std::vector<std::uint32_t>& surf = surface_[e];
+        surf.clear();
+        const std::size_t np = s.b->p.size();
+        if (s.b->triangles.empty()) {
+            for (std::uint32_t i = 0; i < np; ++i) surf.push_back(i);
+        } else {
+            mark_.assign(np, 0);
+            for (std::uint32_t i : s.b->triangles) mark_[i] = 1;
+            for (std::uint32_t i = 0; i < np; ++i)
+                if (mark_[i]) surf.push_back(i);
+        }
+    }
+    Real fastest = 0;
+    for (const Side& s : sides) fastest = std::max(fastest, s.travel);
+
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) {
+            Side& a = sides[i];
+            Side& b = sides[j];
+            if (!(a.stepping || b.stepping) || !may_touch(*a.b, *b.b)) continue;
+            // A particle is tested against triangles within the contact distance plus how far the two
+            // bodies moved this step, so one that went a step's travel deep into a closed body is found.
+            const Real reach = (a.b->def.thickness + b.b->def.thickness) * (1 + kSlop) + a.travel + b.travel;
+            if (!a.box0.fattened(reach).overlaps(b.box0)) continue;
+            for (int dir = 0; dir < 2; ++dir) {
+                Side& p = dir == 0 ? a : b;  // particles
+                Side& t = dir == 0 ? b : a;  // triangles
+                const std::uint32_t ep = std::uint32_t(dir == 0 ? i : j), et = std::uint32_t(dir == 0 ? j : i);
+                if (t.b->triangles.empty()) continue;
+                if (!t.grid_built) build_grid(t, et, (t.b->def.thickness + thickest) * (1 + kSlop) + t.travel + fastest);
+                detect(p, t, ep, et, reach);
+            }
+        }
+    if (contacts_.empty()) return;
+
+    auto inv_mass = [&](const Side& s, std::uint32_t i) { return s.inv_mass(i); };
+    // Gauss-Seidel: positions out of each other, then the normal velocities and friction.
+    for (int it = 0; it < kIterations; ++it)
+        for (std::size_t k = 0; k < contacts_.size(); ++k) {
+            SoftSoftContact& c = contacts_[k];
+            Work& w = work_[k];
+            const Side& a = sides[w.ea];
+            const Side& b = sides[w.eb];
+            const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
+            std::vector<Vec3>& xa = *a.x;
+            std::vector<Vec3>& xb = *b.x;
+            const Real wp = inv_mass(a, c.particle);
+            const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
+            const Real W = wp + c.weights.cwiseAbs2().dot(wk);
+            if (W <= 0) continue;
+            const Vec3 on = c.weights.x() * xb[tri[0]] + c.weights.y() * xb[tri[1]] + c.weights.z() * xb[tri[2]];
+            const Real gap = c.normal.dot(xa[c.particle] - on) - (a.b->def.thickness + b.b->def.thickness);
+            if (gap >= 0) continue;
+            const Real d = -gap / W;  // kg m: the position "impulse"
+            xa[c.particle] += wp * d * c.normal;
+            for (int q = 0; q < 3; ++q) xb[tri[q]] -= c.weights[q] * wk[q] * d * c.normal;
+            w.push += d;
+        }
+    for (int it = 0; it < kIterations; ++it)
+        for (std::size_t k = 0; k < contacts_.size(); ++k) {
+            SoftSoftContact& c = contacts_[k];
+            Work& w = work_[k];
+            const Side& a = sides[w.ea];
+            const Side& b = sides[w.eb];
+            const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
+            std::vector<Vec3>& va = a.b->p.v;
+            std::vector<Vec3>& vb = b.b->p.v;
+            const Real wp = inv_mass(a, c.particle);
+            const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
+            const Real W = wp + c.weights.cwiseAbs2().dot(wk);
+            if (W <= 0) continue;
+            const auto apply = [&](const Vec3& j) {
+                if (wp > 0) va[c.particle] += wp * j;
+                for (int q = 0; q < 3; ++q)
+                    if (wk[q] > 0) vb[tri[q]] -= c.weights[q] * wk[q] * j;
+            };
+            const auto relative = [&] {
+                return Vec3(va[c.particle] - c.weights.x() * vb[tri[0]] - c.weights.y() * vb[tri[1]] -
+                            c.weights.z() * vb[tri[2]]);
+            };
+            // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
+            const Real vn = c.normal.dot(relative());
+            const Real jn = std::max(Real(0), c.impulse + (w.target_vn - vn) / W);
+            apply((jn - c.impulse) * c.normal);
+            c.impulse = jn;
+            // Coulomb friction, bounded by mu times the normal impulse including the position pushes.
+            const Real mu = std::sqrt(std::max(Real(0), a.b->def.friction * b.b->def.friction));
+            const Real budget = mu * (c.impulse + w.push / h);
+            const Vec3 vr = relative();
+            const Vec3 vt = vr - c.normal.dot(vr) * c.normal;
+            Vec3 jt = c.friction - vt / W;
+            const Real len = jt.norm();
+            if (len > budget) jt *= budget / len;
+            const Vec3 djt = jt - c.friction;
+            apply(djt);
+            // The step already moved the particles with their pre-friction velocities: friction takes back
+            // its share of that motion, as the particle-shape pass does.
+            if (a.stepping && wp > 0) (*a.x)[c.particle] += h * wp * djt;
+            if (b.stepping)
+                for (int q = 0; q < 3; ++q)
+                    if (wk[q] > 0) (*b.x)[tri[q]] -= h * c.weights[q] * wk[q] * djt;
+            c.friction = jt;
+        }
+    for (const Side& s : sides)
+        if (s.stepping) s.b->p.v_solved = s.b->p.v;
+}
+
+}  // namespace sinew
