@@ -8,7 +8,7 @@ namespace sinew {
 
 CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
     : pipeline_(pipeline), rigid_(rigid), soft_(soft), kinematics_(pipeline, rigid, soft), rows_(soft, settings_),
-      embedding_(pipeline, rigid, soft) {
+      embedding_(pipeline, rigid, soft), fem_embedding_(rigid, soft) {
     rigid_.add_rows(&rows_);
     const int soft_index = pipeline.find_system(soft.name());
     hooks_[0] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::Before,
@@ -29,7 +29,11 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
                                   },
                                   "interleaved and sub-stepped hybrid: last step's reactions -> rigid");
     hooks_[6] = pipeline.add_hook(soft_index, Stage::DetectCollisions, HookWhen::After,
-                                  [this](const StepContext&) { snapshot_colliders(); }, "interleaved: predicted poses");
+                                  [this](const StepContext&) {
+                                      snapshot_colliders();
+                                      fem_embedding_.wake_touched();
+                                  },
+                                  "interleaved: predicted poses; embed-fem: woken proxies wake their bodies");
 }
 
 CouplingLayer::~CouplingLayer() {
@@ -49,6 +53,7 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
             throw CouplingError("coupling pair " + std::to_string(k) + ": rigid body " + std::to_string(p.rigid.index) +
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
+    fem_embedding_.check(s);
     embedding_.update_membership(s);  // CouplingError (a body no proxy can be made of) changes nothing
     if (s.substeps != settings_.substeps) {
         soft_.set_substeps(s.substeps, [this](int j, Real) { before_soft_substep(j); });
@@ -65,6 +70,7 @@ bool CouplingLayer::any(CouplingStrategy s) const {
 }
 
 void CouplingLayer::begin_step(Real h) {
+    fem_embedding_.place(settings_, h);
     rows_.reset();
     attach_shares_.clear();
     // Implicit Euler bodies under two-way coupling record their contacts (FEM bodies always do): the
@@ -294,6 +300,7 @@ void CouplingLayer::before_soft_solve(Real h) {
 void CouplingLayer::after_soft_solve(Real h) {
     // Every velocity is solved and no position has moved (seed 001 Figure 9): the reactions go back now,
     // so the rigid bodies' positions of this step already feel them.
+    fem_embedding_.send_back(sent_back_);
     if (any(CouplingStrategy::Hybrid)) send_back_contact_impulses(CouplingStrategy::Hybrid, settings_.gain);
     if (any(CouplingStrategy::Interleaved)) gather_interleaved_forces(h);
     if (any(CouplingStrategy::Hybrid) || any(CouplingStrategy::Interleaved)) send_back_attachment_reactions(h);

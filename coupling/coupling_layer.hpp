@@ -17,6 +17,7 @@
 //            against the result (exchange iterations);
 //   hybrid   after soft SolveVelocities the rigid body takes `gain` times the opposite of the impulses the
 //            soft contact pass gave the particles.
+//   embed-rigid, embed-fem  the embeddings (coupling/rigid_embedding.hpp, coupling/fem_embedding.hpp).
 // The impulses soft bodies gave rigid bodies in the last step are kept (impulses()) for events.
 #pragma once
 
@@ -25,6 +26,7 @@
 #include <vector>
 
 #include "coupling/coupling_settings.hpp"
+#include "coupling/fem_embedding.hpp"
 #include "coupling/one_way_coupling.hpp"
 #include "coupling/particle_rows.hpp"
 #include "coupling/rigid_embedding.hpp"
@@ -59,6 +61,8 @@ public:
     /// Embedded soft bodies and their rigid proxies (strategy embed-rigid).
     RigidEmbedding& embedding() { return embedding_; }
     const RigidEmbedding& embedding() const { return embedding_; }
+    /// Embedded rigid bodies and their FEM proxies (strategy embed-fem).
+    const FemEmbedding& fem_embedding() const { return fem_embedding_; }
 
 private:
     void begin_step(Real h);
@@ -112,6 +116,7 @@ private:
     OneWayCoupling kinematics_;
     ParticleRows rows_;
     RigidEmbedding embedding_;
+    FemEmbedding fem_embedding_;
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
     std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass

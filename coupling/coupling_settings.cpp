@@ -7,7 +7,7 @@
 namespace sinew {
 
 namespace {
-const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid"};
+const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem"};
 static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
 }  // namespace
 
@@ -50,8 +50,8 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         for (const CouplingPair& p : s.pairs) ok = ok && passive(p.strategy);
         if (!ok)
             return "coupling substeps = " + std::to_string(s.substeps) +
-                   " needs one-way or hybrid coupling for every pair (two-way, interleaved, one-solver and "
-                   "embed-rigid exchange within one step of both systems)";
+                   " needs one-way or hybrid coupling for every pair (two-way, interleaved, one-solver, "
+                   "embed-rigid and embed-fem exchange within one step of both systems)";
     }
     for (std::size_t k = 0; k < s.pairs.size(); ++k) {
         const CouplingPair& p = s.pairs[k];

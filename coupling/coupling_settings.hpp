@@ -31,6 +31,11 @@
 //             meets every rigid body and joint there; what the rigid solve does to the proxy is given to
 //             the nodes as a rigid motion (coupling/rigid_embedding.hpp). Per soft body: a pair naming
 //             one rigid body cannot embed.
+//   embed-fem  embedding the other way (Parker & O'Brien 2009, seed 001 ch.4 §3): a dynamic rigid body
+//             gets a very stiff FEM proxy in the soft system, reset to the body's pose and velocity each
+//             step, which meets the soft bodies paired with it through the soft-soft contacts; what those
+//             contacts gave its nodes, summed to a force and a torque about the centre of mass, goes to the
+//             rigid body (coupling/fem_embedding.hpp). Per pair or per world.
 #pragma once
 
 #include <cstdint>
@@ -42,9 +47,9 @@
 
 namespace sinew {
 
-enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, EmbedRigid, Count };
+enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, EmbedRigid, EmbedFem, Count };
 
-/// "one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid".
+/// "one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem".
 const char* coupling_strategy_name(CouplingStrategy s);
 /// Parses a name of coupling_strategy_name (false if unknown).
 bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);

@@ -76,6 +76,7 @@ SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
 void RigidEmbedding::update_membership(const CouplingSettings& settings) {
     const auto wanted = [&](std::uint32_t s) {
         if (s >= soft_.slot_count() || !soft_.slot_alive(s) || soft_.slot_body(s).p.size() == 0) return false;
+        if (soft_.slot_body(s).meets_soft_bodies_only) return false;  // a rigid body's FEM proxy (embed-fem)
         return coupling_strategy_of(settings, soft_.id_of_slot(s), BodyId{}) == CouplingStrategy::EmbedRigid;
     };
     // Checked first, so that a body whose proxy cannot be made leaves everything as it was.

@@ -43,7 +43,8 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     const Real reach = travel + r * (1 + kContactSlop);
     const Aabb box = particle_box(b.p, travel + 2 * r);
     for (std::size_t c = 0; c < colliders.size(); ++c)
-        if (colliders[c].box.overlaps(box) && should_collide(b.def.filter, colliders[c].filter))
+        if (colliders[c].box.overlaps(box) && should_collide(b.def.filter, colliders[c].filter) &&
+            std::find(b.ignored_owners.begin(), b.ignored_owners.end(), colliders[c].owner) == b.ignored_owners.end())
             candidates_.push_back(static_cast<std::uint32_t>(c));
     // Planes are found where the particles are predicted to end the step (Particles::x_next, written by
     // the method's IntegrateVelocities part), where the contact pass will test them; the reach keeps a

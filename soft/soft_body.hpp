@@ -207,6 +207,24 @@ struct SoftBody {
     /// Set by a coupling layer (embedding, coupling/rigid_embedding.hpp): the body meets the colliders
     /// through its rigid proxy only, so its own contact pass has no colliders.
     bool meets_colliders_through_proxy = false;
+    /// Set by a coupling layer (coupling/fem_embedding.hpp) on the FEM proxy of a rigid body: it meets no
+    /// collider (its rigid body meets those), only soft bodies, and of those only `soft_partners` (slots)
+    /// if that is not empty.
+    bool meets_soft_bodies_only = false;
+    std::vector<std::uint32_t> soft_partners;
+    /// Set by the same layer: in the soft-soft contact pass this body moves as one rigid body (the limit of
+    /// Parker's very stiff proxy), of this inverse mass and world inverse inertia about `com`, starting at
+    /// (v, w); the pass adds what it gave the body to `impulse` and `angular_impulse` (about com).
+    struct RigidMotion {
+        bool active = false;
+        Real inv_mass = 0;
+        Mat3 inv_inertia = Mat3::Zero();
+        Vec3 com = Vec3::Zero(), v = Vec3::Zero(), w = Vec3::Zero();
+        Vec3 impulse = Vec3::Zero(), angular_impulse = Vec3::Zero();
+    } as_rigid;
+    /// Set by the same layer on a soft body: rigid bodies (slots) whose colliders it ignores, since their
+    /// FEM proxies meet it instead.
+    std::vector<std::uint32_t> ignored_owners;
     /// Set by the same layer for a body whose proxy is dynamic: the proxy's rigid island decides when the
     /// body sleeps (SoftSystem::put_to_sleep), not the soft system's own thresholds.
     bool sleeps_with_proxy = false;

@@ -50,13 +50,18 @@ struct SoftContactPass::Side {
     Real travel = 0;                 ///< largest move of a particle from x_n to x (m)
     bool closed = false;             ///< its triangles enclose a volume: inside is known
     bool grid_built = false;
-    Real inv_mass(std::uint32_t i) const { return stepping ? b->p.inv_mass[i] : Real(0); }
+    bool rigid = false;              ///< moves as one rigid body in the pass (SoftBody::as_rigid)
+    Real inv_mass(std::uint32_t i) const { return stepping && !rigid ? b->p.inv_mass[i] : Real(0); }
 };
 
-bool SoftContactPass::may_touch(const SoftBody& a, const SoftBody& b) {
+bool SoftContactPass::may_touch(const SoftBody& a, std::uint32_t sa, const SoftBody& b, std::uint32_t sb) {
     if (a.p.size() == 0 || b.p.size() == 0) return false;
     if (a.triangles.empty() && b.triangles.empty()) return false;
     if (a.meets_colliders_through_proxy || b.meets_colliders_through_proxy) return false;
+    const auto partner = [](const SoftBody& x, std::uint32_t other) {
+        return x.soft_partners.empty() || std::find(x.soft_partners.begin(), x.soft_partners.end(), other) != x.soft_partners.end();
+    };
+    if (!partner(a, sb) || !partner(b, sa)) return false;
     return should_collide(a.def.filter, b.def.filter);
 }
 
@@ -233,6 +238,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
         s.stepping = entries[e].stepping;
         s.x = s.stepping ? &s.b->p.x_next : &s.b->p.x;
         s.closed = s.b->closed_surface;
+        s.rigid = s.stepping && s.b->as_rigid.active;
         Aabb box;
         for (std::size_t i = 0; i < s.x->size(); ++i) {
             box.grow(s.b->p.x[i]);
@@ -261,7 +267,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
         for (std::size_t j = i + 1; j < n; ++j) {
             Side& a = sides[i];
             Side& b = sides[j];
-            if (!(a.stepping || b.stepping) || !may_touch(*a.b, *b.b)) continue;
+            if (!(a.stepping || b.stepping) || !may_touch(*a.b, a.slot, *b.b, b.slot)) continue;
             // A particle is tested against triangles within the contact distance plus how far the two
             // bodies moved this step, so one that went a step's travel deep into a closed body is found.
             const Real reach = (a.b->def.thickness + b.b->def.thickness) * (1 + kSlop) + a.travel + b.travel;
@@ -311,16 +317,41 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             std::vector<Vec3>& vb = b.b->p.v;
             const Real wp = inv_mass(a, c.particle);
             const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
-            const Real W = wp + c.weights.cwiseAbs2().dot(wk);
+            // A side that moves as a rigid body (a rigid body's FEM proxy) is met at the contact point with
+            // its rigid velocity field and effective inverse mass 1/M + (r x n) I^-1 (r x n).
+            const Vec3 xa0 = a.b->p.x[c.particle];
+            const Vec3 xb0 = c.weights.x() * b.b->p.x[tri[0]] + c.weights.y() * b.b->p.x[tri[1]] + c.weights.z() * b.b->p.x[tri[2]];
+            const auto rigid_w = [&](const SoftBody::RigidMotion& m, const Vec3& x) {
+                const Vec3 rn = (x - m.com).cross(c.normal);
+                return m.inv_mass + rn.dot(m.inv_inertia * rn);
+            };
+            const Real W = (a.rigid ? rigid_w(a.b->as_rigid, xa0) : wp) +
+                           (b.rigid ? rigid_w(b.b->as_rigid, xb0) : c.weights.cwiseAbs2().dot(wk));
             if (W <= 0) continue;
+            const auto push_rigid = [](SoftBody::RigidMotion& m, const Vec3& x, const Vec3& j) {
+                const Vec3 r = x - m.com;
+                m.v += m.inv_mass * j;
+                m.w += m.inv_inertia * r.cross(j);
+                m.impulse += j;
+                m.angular_impulse += r.cross(j);
+            };
             const auto apply = [&](const Vec3& j) {
-                if (wp > 0) va[c.particle] += wp * j;
+                if (a.rigid) push_rigid(a.b->as_rigid, xa0, j);
+                else if (wp > 0) va[c.particle] += wp * j;
+                if (b.rigid) {
+                    push_rigid(b.b->as_rigid, xb0, -j);
+                    return;
+                }
                 for (int q = 0; q < 3; ++q)
                     if (wk[q] > 0) vb[tri[q]] -= c.weights[q] * wk[q] * j;
             };
             const auto relative = [&] {
-                return Vec3(va[c.particle] - c.weights.x() * vb[tri[0]] - c.weights.y() * vb[tri[1]] -
-                            c.weights.z() * vb[tri[2]]);
+                const SoftBody::RigidMotion& ma = a.b->as_rigid;
+                const SoftBody::RigidMotion& mb = b.b->as_rigid;
+                const Vec3 vpa = a.rigid ? Vec3(ma.v + ma.w.cross(xa0 - ma.com)) : va[c.particle];
+                const Vec3 vpb = b.rigid ? Vec3(mb.v + mb.w.cross(xb0 - mb.com))
+                                         : Vec3(c.weights.x() * vb[tri[0]] + c.weights.y() * vb[tri[1]] + c.weights.z() * vb[tri[2]]);
+                return Vec3(vpa - vpb);
             };
             // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
             const Real vn = c.normal.dot(relative());
@@ -344,6 +375,12 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 for (int q = 0; q < 3; ++q)
                     if (wk[q] > 0) (*b.x)[tri[q]] -= h * c.weights[q] * wk[q] * djt;
             c.friction = jt;
+        }
+    // A rigid side's nodes take its rigid velocity field.
+    for (const Side& s : sides)
+        if (s.rigid) {
+            const SoftBody::RigidMotion& m = s.b->as_rigid;
+            for (std::size_t i = 0; i < s.b->p.size(); ++i) s.b->p.v[i] = m.v + m.w.cross(s.b->p.x[i] - m.com);
         }
     for (const Side& s : sides)
         if (s.stepping) s.b->p.v_solved = s.b->p.v;

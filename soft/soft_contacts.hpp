@@ -53,9 +53,10 @@ public:
     void run(const std::vector<Entry>& bodies, Real h);
     const std::vector<SoftSoftContact>& contacts() const { return contacts_; }
 
-    /// May bodies a and b touch at all (both have particles, one has triangles, their filters agree,
-    /// neither meets the world only through a rigid proxy)?
-    static bool may_touch(const SoftBody& a, const SoftBody& b);
+    /// May bodies a and b (in slots sa and sb) touch at all: both have particles, one has triangles, their
+    /// filters agree, neither meets the world only through a rigid proxy, and each is among the other's
+    /// soft_partners if it has any?
+    static bool may_touch(const SoftBody& a, std::uint32_t sa, const SoftBody& b, std::uint32_t sb);
     /// Do the triangles close a volume (every edge shared by exactly two)? Then a particle found behind
     /// one is inside the body; an open surface (cloth) has two sides instead.
     static bool closed_surface(const std::vector<std::uint32_t>& triangles);

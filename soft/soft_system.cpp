@@ -400,7 +400,7 @@ void SoftSystem::wake_touched_by_soft_bodies(Real h) {
         const Aabb box = bounds(s);
         for (std::uint32_t t = 0; t < bodies_.size(); ++t) {
             if (!moving_boxes_[t].valid() || !moving_boxes_[t].overlaps(box) ||
-                !SoftContactPass::may_touch(bodies_[t], b))
+                !SoftContactPass::may_touch(bodies_[t], t, b, s))
                 continue;
             b.sleep_timer = 0;
             begin_step(b, h);
@@ -418,14 +418,14 @@ void SoftSystem::detect_collisions(Real h) {
             // Asleep: woken by a collider that moves near it. The colliders are refreshed just before
             // this stage, so the forces of this step are taken now.
             // An embedded body is woken by its proxy's island, not by colliders it does not meet.
-            if (b.meets_colliders_through_proxy ||
+            if (b.meets_colliders_through_proxy || b.meets_soft_bodies_only ||
                 !touched_by_moving_collider(bounds(s), b.def.filter, colliders_, settings_.sleep_velocity))
                 continue;
             b.sleep_timer = 0;
             begin_step(b, h);
         }
         static const std::vector<Collider> kNone;
-        collision_[s].begin(b, b.meets_colliders_through_proxy ? kNone : colliders_, h);
+        collision_[s].begin(b, b.meets_colliders_through_proxy || b.meets_soft_bodies_only ? kNone : colliders_, h);
     }
 }
 

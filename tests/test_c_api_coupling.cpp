@@ -131,7 +131,7 @@ TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][
     // from C (tests/c_api_enum_calls.c).
     CHECK(sinew_test_set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "not a sinew_coupling"));
-    CHECK(sinew_test_set_coupling_int(t.world, 6, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
+    CHECK(sinew_test_set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
     CHECK(sinew_world_set_coupling(t.world, SINEW_COUPLING_HYBRID, 2.0f) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "gain"));
     sinew_coupling c;

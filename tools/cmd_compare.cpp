@@ -54,6 +54,8 @@ std::vector<Variant> default_variants() {
     v.push_back({S::OneSolver, 1, 1, 2});
     v.push_back({S::EmbedRigid, 1, 1, 1});
     v.push_back({S::EmbedRigid, 1, 1, 2});
+    v.push_back({S::EmbedFem, 1, 1, 1});
+    v.push_back({S::EmbedFem, 1, 1, 2});
     return v;
 }
 
@@ -352,7 +354,7 @@ extern const Command compare_command = {
     "                     [--record-dir DIR]\n"
     "       sinew compare --all [--scene-dir DIR] [...]\n\n"
     "Runs each scene under every coupling and embedding variant (one-way, one-way with 4 soft sub-steps,\n"
-    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid at h and h/2)\n"
+    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid and embed-fem at h and h/2)\n"
     "and measures each against a reference: STRATEGY (default: the scene's coupling.compare_reference,\n"
     "else two-way) with the step divided by N (8),\n"
     "itself checked against the same at 2N. Prints one JSON line per run: median ms per scene step,\n"

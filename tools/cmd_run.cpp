@@ -200,7 +200,7 @@ const Command run_command = {
     "  --steps N       number of steps (0 allowed: only build the world)\n"
     "  --dt H          fixed step in seconds, overrides the scene's time_step\n"
     "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid, interleaved or\n"
-    "                  one-solver, or embed-rigid (overrides the scene's \"coupling\" section, its pairs included;\n"
+    "                  one-solver, embed-rigid or embed-fem (overrides the scene's \"coupling\" section, its pairs included;\n"
     "                  docs/coupling.md)\n"
     "  --workers N     threads for each step, this one included (default 1; results are bit-identical\n"
     "                  for every N)\n"

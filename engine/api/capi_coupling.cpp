@@ -19,6 +19,7 @@ bool strategy_of(int c, CouplingStrategy& out) {
         case SINEW_COUPLING_INTERLEAVED: out = CouplingStrategy::Interleaved; return true;
         case SINEW_COUPLING_ONE_SOLVER: out = CouplingStrategy::OneSolver; return true;
         case SINEW_COUPLING_EMBED_RIGID: out = CouplingStrategy::EmbedRigid; return true;
+        case SINEW_COUPLING_EMBED_FEM: out = CouplingStrategy::EmbedFem; return true;
         default: return false;
     }
 }

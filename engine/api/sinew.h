@@ -704,8 +704,10 @@ typedef enum sinew_coupling {
     SINEW_COUPLING_HYBRID = 2,  /* one-way contacts, `gain` times their impulses sent back to the rigid body */
     SINEW_COUPLING_INTERLEAVED = 3, /* Baraff & Witkin 1997: alternate steps, forces a step late, repair */
     SINEW_COUPLING_ONE_SOLVER = 4,  /* two-way in one solver: the soft body's springs solved in the rigid solver's loop */
-    SINEW_COUPLING_EMBED_RIGID = 5  /* embedding: the soft body is one rigid proxy in the rigid solver (per soft body:
+    SINEW_COUPLING_EMBED_RIGID = 5, /* embedding: the soft body is one rigid proxy in the rigid solver (per soft body:
                                        name no rigid body in sinew_world_set_pair_coupling) */
+    SINEW_COUPLING_EMBED_FEM = 6    /* embedding the other way: a dynamic rigid body (box, sphere, capsule, convex hull)
+                                       is a stiff FEM proxy in the soft system, meeting the soft bodies paired with it */
 } sinew_coupling;
 /** The world's coupling strategy from the next step, for every pair no override names; `gain` in [0, 1]
  *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */

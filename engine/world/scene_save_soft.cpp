@@ -156,6 +156,7 @@ Json soft_bodies_json(const World& world, const std::string& origin) {
     Json out = Json::array();
     for (std::uint32_t s = 0; s < soft.slot_count(); ++s) {
         if (!soft.slot_alive(s)) continue;
+        if (world.coupling().fem_embedding().is_proxy(soft.id_of_slot(s))) continue;  // made again by the coupling section
         // A particle attached to an embedded soft body's proxy: the proxy is not written (the coupling
         // section makes it again), so nothing in the file could name it.
         const std::vector<Attachment>& att = soft.slot_body(s).attachments;

@@ -1,0 +1,62 @@
+// Embedding rigid bodies into the FEM system (strategy embed-fem; Parker & O'Brien 2009, seed 001 ch.4 §3,
+// ../shared/THEORY.md §6): each dynamic rigid body paired embed-fem with a soft body gets a stiff FEM
+// proxy in the soft system, a tetrahedral mesh of its shape (a fan of tets from its centre to a surface
+// triangulation: boxes, spheres, capsules, convex hulls), of its mass at uniform density.
+//
+// Each step, before the soft system's IntegrateVelocities, the proxy is reset to the rigid body's pose and
+// velocity field (the gravity the solver will add over the step included), with no gravity of its own, so
+// its elements see a rigid motion. It meets only the soft bodies paired with its rigid body, through the
+// soft-soft contacts (soft/soft_contacts.hpp); those bodies ignore the rigid body's own collider. After the
+// soft SolveVelocities (every velocity solved, no position moved: seed 001 Figure 9) the change of its
+// nodes' momenta, summed to an impulse and an angular impulse about the centre of mass, goes to the rigid
+// body. What embedding loses (seed 001 ch.4 §3): the contacts see a node's share of the body's mass, not the
+// body's effective mass at the point, so a contact takes a few steps to stop the body; a force the soft
+// side exerts only through the proxy's deformation is thrown away with the reset.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "coupling/coupling_settings.hpp"
+#include "coupling/particle_rows.hpp"
+#include "rigid/rigid_system.hpp"
+#include "soft/soft_system.hpp"
+
+namespace sinew {
+
+class FemEmbedding {
+public:
+    FemEmbedding(RigidSystem& rigid, SoftSystem& soft) : rigid_(rigid), soft_(soft) {}
+
+    /// Throws CouplingError naming the pair if a pair embed-fem names a rigid body that is not dynamic or
+    /// whose shape has no proxy (planes, meshes, compounds); changes nothing then.
+    void check(const CouplingSettings& settings) const;
+    /// Before soft IntegrateVelocities: proxies made for newly embedded bodies, dropped for bodies no longer
+    /// embedded (or gone), each reset to its body's pose and velocity; partners and ignored colliders set.
+    void place(const CouplingSettings& settings, Real h);
+    /// After soft DetectCollisions: a proxy a soft body woke wakes its rigid body.
+    void wake_touched();
+    /// After soft SolveVelocities: each proxy's momentum change to its rigid body; one record per contact.
+    void send_back(std::vector<CouplingImpulse>& sent);
+
+    bool is_proxy(SoftBodyId soft) const;
+    /// The proxy of an embedded rigid body (null if it has none).
+    SoftBodyId proxy(BodyId rigid) const;
+    /// The proxy's surface and tets in the body's frame for a shape (false: no proxy for that shape).
+    static bool proxy_mesh(const Shape& shape, std::vector<Vec3>& nodes, std::vector<std::uint32_t>& tets);
+
+private:
+    struct Proxy {
+        BodyId rigid;
+        SoftBodyId soft;
+        std::vector<Vec3> local;  ///< node positions in the rigid body's frame
+    };
+    bool wanted(const CouplingSettings& settings, std::uint32_t rigid_slot) const;
+    void drop(Proxy& px);
+
+    RigidSystem& rigid_;
+    SoftSystem& soft_;
+    std::vector<Proxy> proxies_;
+};
+
+}  // namespace sinew
