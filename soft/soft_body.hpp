@@ -136,6 +136,9 @@ struct SoftBodyDef {
     Real friction = Real(0.5);  ///< particle-collider Coulomb coefficient
     Real restitution = 0;       ///< [0, 1]
     Real thickness = Real(0.01);  ///< particle radius for collisions (m), > 0
+    /// The body's particles meet its own triangles too (cloth folding on itself; soft/soft_contacts.hpp),
+    /// all but those within one edge of the particle.
+    bool self_collision = false;
     Real gravity_scale = 1;
     /// Which rigid bodies the particles meet (their colliders' filters; engine/core/collision_filter.hpp).
     CollisionFilter filter;

@@ -119,7 +119,7 @@ void SoftContactPass::build_grid(Side& s, std::uint32_t entry, Real margin) {
     s.grid_built = true;
 }
 
-void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach) {
+void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, bool self) {
     // The contact is found where the step started (x_n), where the two were last resolved, and enforced on
     // the predicted positions: a particle that passes an edge of the other body within the step (two equal
     // cubes stacked meet edge on edge) is still pushed back the way it came, not out through the face it
@@ -145,6 +145,9 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
         bool best_face = false;
         for (auto it = range.first; it != range.second; ++it) {
             const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
+            // Against its own surface a particle skips the triangles it is on or is one edge from (they
+            // touch it by construction).
+            if (self && near_self(i, &tri[3 * std::size_t(t)])) continue;
             const Vec3 w = closest_on_triangle_weights(x0, xb0[tri[3 * t]], xb0[tri[3 * t + 1]], xb0[tri[3 * t + 2]]);
             const Vec3 on = w.x() * xb0[tri[3 * t]] + w.y() * xb0[tri[3 * t + 1]] + w.z() * xb0[tri[3 * t + 2]];
             const Real d = (x0 - on).norm();
@@ -222,11 +225,41 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
     }
 }
 
+void SoftContactPass::build_neighbours(const SoftBody& b) {
+    // Edge neighbours of every particle, as compressed rows.
+    const std::size_t np = b.p.size();
+    sort_scratch_.clear();
+    for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3)
+        for (int e = 0; e < 3; ++e) {
+            const std::uint32_t u = b.triangles[t + e], v = b.triangles[t + (e + 1) % 3];
+            sort_scratch_.push_back({u, v});
+            sort_scratch_.push_back({v, u});
+        }
+    std::sort(sort_scratch_.begin(), sort_scratch_.end());
+    sort_scratch_.erase(std::unique(sort_scratch_.begin(), sort_scratch_.end()), sort_scratch_.end());
+    neighbour_start_.assign(np + 1, 0);
+    neighbours_.resize(sort_scratch_.size());
+    for (std::size_t k = 0; k < sort_scratch_.size(); ++k) {
+        ++neighbour_start_[sort_scratch_[k].first + 1];
+        neighbours_[k] = sort_scratch_[k].second;
+    }
+    for (std::size_t i = 0; i < np; ++i) neighbour_start_[i + 1] += neighbour_start_[i];
+}
+
+bool SoftContactPass::near_self(std::uint32_t i, const std::uint32_t* tri) const {
+    for (int k = 0; k < 3; ++k) {
+        if (tri[k] == i) return true;
+        const auto first = neighbours_.begin() + neighbour_start_[i], last = neighbours_.begin() + neighbour_start_[i + 1];
+        if (std::binary_search(first, last, tri[k])) return true;
+    }
+    return false;
+}
+
 void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
     contacts_.clear();
     work_.clear();
     const std::size_t n = entries.size();
-    if (n < 2) return;
+    if (n == 0) return;
     std::vector<Side> sides(n);
     if (grids_.size() < n) grids_.resize(n);
     if (surface_.size() < n) surface_.resize(n);
@@ -278,9 +311,18 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 const std::uint32_t ep = std::uint32_t(dir == 0 ? i : j), et = std::uint32_t(dir == 0 ? j : i);
                 if (t.b->triangles.empty()) continue;
                 if (!t.grid_built) build_grid(t, et, (t.b->def.thickness + thickest) * (1 + kSlop) + t.travel + fastest);
-                detect(p, t, ep, et, reach);
+                detect(p, t, ep, et, reach, false);
             }
         }
+    // Self-collision: a body's particles against its own triangles (a cloth folding on itself).
+    for (std::size_t i = 0; i < n; ++i) {
+        Side& s = sides[i];
+        const SoftBody& b = *s.b;
+        if (!s.stepping || !b.def.self_collision || b.triangles.empty() || b.meets_colliders_through_proxy) continue;
+        if (!s.grid_built) build_grid(s, std::uint32_t(i), (b.def.thickness + thickest) * (1 + kSlop) + s.travel + fastest);
+        build_neighbours(b);
+        detect(s, s, std::uint32_t(i), std::uint32_t(i), 2 * b.def.thickness * (1 + kSlop) + s.travel, true);
+    }
     if (contacts_.empty()) return;
 
     auto inv_mass = [&](const Side& s, std::uint32_t i) { return s.inv_mass(i); };

@@ -13,9 +13,12 @@
 // linear momentum exactly; Gauss-Seidel sweeps over the contacts let stacks pass their weight down.
 // A sleeping body takes part with inverse mass zero; a moving body that reaches one wakes it.
 //
+// A body with SoftBodyDef::self_collision also meets its own triangles, all but those within one edge of
+// the particle (a cloth folding on itself).
+//
 // What it does not do (docs/soft-bodies.md, "Soft bodies against soft bodies"): edge-edge contacts (two
 // cloths crossing edge on edge between particles), continuous collision (a particle that crosses a whole
-// triangle in one step, or ends deeper inside a closed body than its search reach), and self-collision.
+// triangle in one step, or ends deeper inside a closed body than its search reach).
 #pragma once
 
 #include <cstdint>
@@ -66,8 +69,14 @@ public:
 
 private:
     struct Side;  // one body's arrays for the step, in soft_contacts.cpp
-    /// Contacts of the surface particles of entry ea with the triangles of entry eb within `reach`.
-    void detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach);
+    /// Contacts of the surface particles of entry ea with the triangles of entry eb within `reach`; `self`:
+    /// ea == eb, and triangles within one edge of the particle are skipped (build_neighbours first).
+    void detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, bool self);
+    /// The edge neighbours of every particle of b, for near_self.
+    void build_neighbours(const SoftBody& b);
+    /// Is the triangle on particle i or one edge from it?
+    bool near_self(std::uint32_t i, const std::uint32_t* tri) const;
+    std::vector<std::uint32_t> neighbour_start_, neighbours_;
     /// Entry e's triangles into its hash grid, each box fattened by `margin`.
     void build_grid(Side& s, std::uint32_t e, Real margin);
 

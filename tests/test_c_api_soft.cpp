@@ -604,6 +604,10 @@ TEST_CASE("C API soft: a stiff cantilever of quadratic tets with the rest-factor
     order3.tet_order = 3;
     CHECK(sinew_soft_create_tet_box(w, &order3, &m, {0, 3, 0}, {1, 1, 1}, 2, 2, 2, 5, &bad) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK_THAT(sinew_last_error(), Catch::Contains("def->tet_order = 3"));
+    sinew_soft_def self2 = d;
+    self2.self_collision = 2;
+    CHECK(sinew_soft_create_tet_box(w, &self2, &m, {0, 3, 0}, {1, 1, 1}, 2, 2, 2, 5, &bad) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK_THAT(sinew_last_error(), Catch::Contains("def->self_collision = 2"));
     sinew_fem_material plastic = m;
     plastic.creep = 1;
     plastic.max_plastic = 0.1f;

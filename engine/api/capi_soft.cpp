@@ -38,6 +38,8 @@ std::string check_soft_def(const sinew_soft_def& d) {
     if (!nonneg(d.pressure)) return "def->pressure = " + to_text(d.pressure) + " must be finite and >= 0 (J)";
     if (d.long_range_attachments != 0 && d.long_range_attachments != 1)
         return "def->long_range_attachments = " + std::to_string(d.long_range_attachments) + " must be 0 or 1";
+    if (d.self_collision != 0 && d.self_collision != 1)
+        return "def->self_collision = " + std::to_string(d.self_collision) + " must be 0 or 1";
     if (d.tet_order != 1 && d.tet_order != 2)
         return "def->tet_order = " + std::to_string(d.tet_order) + " must be 1 (linear tets) or 2 (quadratic tets)";
     const int preconditioner = enum_value(d.preconditioner);
@@ -81,6 +83,7 @@ SoftBodyDef base_def(const sinew_soft_def& d) {
     b.gravity_scale = Real(d.gravity_scale);
     b.allow_sleep = d.allow_sleep == 1;
     b.filter = to_filter(d.filter);
+    b.self_collision = d.self_collision == 1;
     b.preconditioner = enum_value(d.preconditioner) == SINEW_PRECONDITIONER_REST_FACTOR ? SoftPreconditioner::RestFactor
                                                                                         : SoftPreconditioner::BlockJacobi;
     b.user_data = d.user_data;
@@ -236,6 +239,7 @@ sinew_soft_def sinew_soft_def_default(void) {
     d.filter = to_c(b.filter);
     d.tet_order = 1;
     d.preconditioner = SINEW_PRECONDITIONER_BLOCK_JACOBI;
+    d.self_collision = b.self_collision ? 1 : 0;
     d.user_data = 0;
     return d;
 }

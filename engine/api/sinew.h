@@ -336,6 +336,8 @@ typedef struct sinew_soft_def {
     int tet_order;              /* tet bodies: 1 = linear (4-node) tets, 2 = quadratic (10-node) tets, which
                                    bend without locking; no plasticity (default 1) */
     sinew_soft_preconditioner preconditioner; /* implicit bodies (default SINEW_PRECONDITIONER_BLOCK_JACOBI) */
+    int self_collision;         /* 0 or 1: the particles meet the body's own triangles (a cloth folding on
+                                   itself; default 0) */
     uint64_t user_data;         /* yours, returned by sinew_soft_user_data() */
 } sinew_soft_def;
 

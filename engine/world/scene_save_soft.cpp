@@ -62,7 +62,8 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
                                   {"pressure", number(d.pressure)},
                                   {"friction", number(d.friction)},
                                   {"restitution", number(d.restitution)},
-                                  {"thickness", number(d.thickness)}});
+                                  {"thickness", number(d.thickness)},
+                                  {"self_collision", d.self_collision}});
     j["gravity_scale"] = number(d.gravity_scale);
     j["allow_sleep"] = d.allow_sleep;
     if (const Json f = scene_json::filter_json(d.filter); !f.is_null()) j["filter"] = f;

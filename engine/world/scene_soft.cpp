@@ -47,12 +47,13 @@ void parse_solver(const Node& body, SoftBodyDef& d) {
 void parse_material(const Node& body, SoftBodyDef& d) {
     std::optional<Node> n = body.find("material");
     if (!n) return;
-    n->allow_keys({"drag", "pressure", "friction", "restitution", "thickness"});
+    n->allow_keys({"drag", "pressure", "friction", "restitution", "thickness", "self_collision"});
     d.drag = read_real(*n, "drag", d.drag, Range::NonNegative);
     d.pressure = read_real(*n, "pressure", d.pressure, Range::NonNegative);
     d.friction = read_real(*n, "friction", d.friction, Range::NonNegative);
     d.restitution = read_real(*n, "restitution", d.restitution, Range::UnitInterval);
     d.thickness = read_real(*n, "thickness", d.thickness, Range::Positive);
+    d.self_collision = read_bool(*n, "self_collision", d.self_collision);
 }
 
 // "fem": the elements' material (soft/fem_material.hpp); every bound create_body checks is checked here.
