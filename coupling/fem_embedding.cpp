@@ -163,6 +163,7 @@ void FemEmbedding::place(const CouplingSettings& settings, Real h) {
         SoftBodyDef d;
         d.method = SoftMethod::ImplicitEuler;
         d.iterations = 50;
+        d.preconditioner = SoftPreconditioner::RestFactor;  // stiff: block Jacobi ran to its cap
         d.fem.young = kProxyYoung;
         d.fem.poisson = kProxyPoisson;
         d.fem.density = rigid_.mass(id) / volume;  // the body's mass, spread uniformly

@@ -98,10 +98,12 @@ void SoftContactPass::build_grid(Side& s, std::uint32_t entry, Real margin) {
     // A fattened triangle box spans at most two cells per axis.
     g.cell = std::max(largest + 2 * margin, Real(1e-6));
     sort_scratch_.clear();
+    g.boxes.resize(b.triangles.size() / 3);
     for (std::uint32_t t = 0; 3 * std::size_t(t) + 2 < b.triangles.size(); ++t) {
         Aabb box;
         for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[3 * t + k]]);
         box = box.fattened(margin);
+        g.boxes[t] = box;
         const std::int64_t i0 = cell_of(box.lo.x(), g.cell), i1 = cell_of(box.hi.x(), g.cell);
         const std::int64_t j0 = cell_of(box.lo.y(), g.cell), j1 = cell_of(box.hi.y(), g.cell);
         const std::int64_t k0 = cell_of(box.lo.z(), g.cell), k1 = cell_of(box.hi.z(), g.cell);
@@ -147,6 +149,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
             const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
             // Against its own surface a particle skips the triangles it is on or is one edge from (they
             // touch it by construction).
+            if (!g.boxes[t].contains(x0)) continue;  // further than the margin (>= reach) from it
             if (self && near_self(i, &tri[3 * std::size_t(t)])) continue;
             const Vec3 w = closest_on_triangle_weights(x0, xb0[tri[3 * t]], xb0[tri[3 * t + 1]], xb0[tri[3 * t + 2]]);
             const Vec3 on = w.x() * xb0[tri[3 * t]] + w.y() * xb0[tri[3 * t + 1]] + w.z() * xb0[tri[3 * t + 2]];
@@ -184,6 +187,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
             Vec3 pseudo = Vec3::Zero();
             for (auto it = range.first; it != range.second; ++it) {
                 const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
+                if (!g.boxes[t].contains(x0)) continue;
                 const Vec3& p0 = xb0[tri[3 * t]];
                 const Vec3& p1 = xb0[tri[3 * t + 1]];
                 const Vec3& p2 = xb0[tri[3 * t + 2]];
@@ -259,7 +263,15 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
     contacts_.clear();
     work_.clear();
     const std::size_t n = entries.size();
-    if (n == 0) return;
+    // Nothing to do unless two bodies may touch or one meets itself (a lone cloth costs nothing here).
+    bool any = false;
+    for (std::size_t i = 0; i < n && !any; ++i) {
+        const Entry& e = entries[i];
+        any = e.stepping && e.body->def.self_collision && !e.body->triangles.empty();
+        for (std::size_t j = i + 1; j < n && !any; ++j)
+            any = (e.stepping || entries[j].stepping) && may_touch(*e.body, e.slot, *entries[j].body, entries[j].slot);
+    }
+    if (!any) return;
     std::vector<Side> sides(n);
     if (grids_.size() < n) grids_.resize(n);
     if (surface_.size() < n) surface_.resize(n);

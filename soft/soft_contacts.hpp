@@ -86,6 +86,7 @@ private:
         Real cell = 1;
         std::vector<std::uint64_t> keys;
         std::vector<std::uint32_t> tris;
+        std::vector<Aabb> boxes;  ///< per triangle, fattened by the margin: tested before the closest point
     };
     std::vector<Grid> grids_;
     std::vector<std::vector<std::uint32_t>> surface_;  ///< per entry: particles on its triangles (or all)
