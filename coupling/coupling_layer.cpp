@@ -8,7 +8,7 @@ namespace sinew {
 
 CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
     : pipeline_(pipeline), rigid_(rigid), soft_(soft), kinematics_(pipeline, rigid, soft), rows_(soft, settings_),
-      embedding_(pipeline, rigid, soft), fem_embedding_(rigid, soft) {
+      embedding_(pipeline, rigid, soft), fem_embedding_(rigid, soft, embedding_) {
     rigid_.add_rows(&rows_);
     const int soft_index = pipeline.find_system(soft.name());
     hooks_[0] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::Before,

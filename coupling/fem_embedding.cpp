@@ -123,9 +123,13 @@ SoftBodyId FemEmbedding::proxy(BodyId rigid) const {
 }
 
 bool FemEmbedding::wanted(const CouplingSettings& settings, std::uint32_t o) const {
-    if (!rigid_.slot_alive(o) || rigid_.slot_type(o) != BodyType::Dynamic || !has_proxy_shape(rigid_.slot_shape(o)))
+    // Enabled, solid (a sensor pushes nothing), dynamic bodies of a shape with a proxy, not themselves the
+    // rigid proxy of an embedded soft body (reshaped each step).
+    if (!rigid_.slot_alive(o) || rigid_.slot_type(o) != BodyType::Dynamic || !rigid_.slot_enabled(o) ||
+        rigid_.slot_sensor(o) || !has_proxy_shape(rigid_.slot_shape(o)))
         return false;
     const BodyId id = rigid_.id_of_slot(o);
+    if (rigid_proxies_.is_proxy(id)) return false;
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s)
         if (soft_.slot_alive(s) && !soft_.slot_body(s).meets_soft_bodies_only &&
             coupling_strategy_of(settings, soft_.id_of_slot(s), id) == CouplingStrategy::EmbedFem)
@@ -172,6 +176,7 @@ void FemEmbedding::place(const CouplingSettings& settings, Real h) {
         d.restitution = rigid_.slot_material(o).restitution;
         d.gravity_scale = 0;  // the rigid body's velocity carries gravity (place)
         d.allow_sleep = false;  // it sleeps with its rigid body
+        d.filter = rigid_.slot_filter(o);  // it meets the soft bodies its rigid body would
         Proxy px;
         px.rigid = id;
         px.local = nodes;  // body frame
@@ -180,7 +185,11 @@ void FemEmbedding::place(const CouplingSettings& settings, Real h) {
         mesh.nodes.reserve(nodes.size());
         for (const Vec3& x : nodes) mesh.nodes.push_back(xf.apply(x));
         mesh.tets = tets;
-        px.soft = soft_.create_body(make_tet_body(mesh, d));
+        try {
+            px.soft = soft_.create_body(make_tet_body(mesh, d));
+        } catch (const SoftError&) {
+            continue;  // a mesh the checks refuse (a capsule over 100 radii long): the body stays a collider
+        }
         soft_.slot_body(px.soft.index).meets_soft_bodies_only = true;
         proxies_.push_back(std::move(px));
     }
@@ -224,8 +233,17 @@ void FemEmbedding::place(const CouplingSettings& settings, Real h) {
 }
 
 void FemEmbedding::wake_touched() {
-    for (const Proxy& px : proxies_)
-        if (soft_.body(px.soft).stepping && !rigid_.awake(px.rigid)) rigid_.wake(px.rigid);
+    const RigidSystem::State& st = rigid_.state();
+    for (const Proxy& px : proxies_) {
+        SoftBody& b = soft_.body(px.soft);
+        if (!b.stepping || rigid_.awake(px.rigid)) continue;
+        rigid_.wake(px.rigid);
+        // Placed asleep, the proxy took the body's zero inverse mass: the pass would have held it immovable
+        // and sent the whole stopping impulse to the body now awake.
+        const std::uint32_t o = px.rigid.index;
+        b.as_rigid.inv_mass = st.inv_mass[o];
+        b.as_rigid.inv_inertia = st.inv_inertia_world[o];
+    }
 }
 
 void FemEmbedding::send_back(std::vector<CouplingImpulse>& sent) {
@@ -247,10 +265,8 @@ void FemEmbedding::send_back(std::vector<CouplingImpulse>& sent) {
             st.w[o] += st.inv_inertia_world[o] * l;
         }
         // One record per contact, as the rigid body received it. A body touching an awake soft body stays
-        // awake (its sleep timer restarts): it sleeps after the soft bodies under it do. Asleep while they
-        // still moved, its proxy held them as an immovable body, and the support they pushed back with
-        // woke it with a step's worth of upward speed (20 kg box on the FEM block: 0.164 m/s kicks every
-        // 0.6 s).
+        // awake (its sleep timer restarts): it sleeps after the soft bodies under it do, which then hold
+        // still under it.
         bool touches_awake = false;
         for (const SoftSoftContact& c : soft_.soft_contacts()) {
             const Vec3 on_particle = c.impulse * c.normal + c.friction;

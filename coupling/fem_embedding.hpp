@@ -6,12 +6,12 @@
 // Each step, before the soft system's IntegrateVelocities, the proxy is reset to the rigid body's pose and
 // velocity field (the gravity the solver will add over the step included), with no gravity of its own, so
 // its elements see a rigid motion. It meets only the soft bodies paired with its rigid body, through the
-// soft-soft contacts (soft/soft_contacts.hpp); those bodies ignore the rigid body's own collider. After the
-// soft SolveVelocities (every velocity solved, no position moved: seed 001 Figure 9) the change of its
-// nodes' momenta, summed to an impulse and an angular impulse about the centre of mass, goes to the rigid
-// body. What embedding loses (seed 001 ch.4 §3): the contacts see a node's share of the body's mass, not the
-// body's effective mass at the point, so a contact takes a few steps to stop the body; a force the soft
-// side exerts only through the proxy's deformation is thrown away with the reset.
+// soft-soft contacts (soft/soft_contacts.hpp), where it moves as one rigid body of the body's mass and
+// inertia (SoftBody::as_rigid: the limit of a very stiff proxy); those soft bodies ignore the rigid body's
+// own collider. After the soft SolveVelocities (every velocity solved, no position moved: seed 001 Figure
+// 9) the impulses the pass gave it, summed to an impulse and an angular impulse about the centre of mass,
+// go to the rigid body. What embedding loses (seed 001 ch.4 §3): the contacts act after the soft solve, not
+// in it, so the soft side feels the body only through them, a step at a time.
 #pragma once
 
 #include <cstdint>
@@ -19,6 +19,7 @@
 
 #include "coupling/coupling_settings.hpp"
 #include "coupling/particle_rows.hpp"
+#include "coupling/rigid_embedding.hpp"
 #include "rigid/rigid_system.hpp"
 #include "soft/soft_system.hpp"
 
@@ -26,7 +27,9 @@ namespace sinew {
 
 class FemEmbedding {
 public:
-    FemEmbedding(RigidSystem& rigid, SoftSystem& soft) : rigid_(rigid), soft_(soft) {}
+    /// `rigid_proxies`: the other embedding, whose rigid proxies of soft bodies get no FEM proxy.
+    FemEmbedding(RigidSystem& rigid, SoftSystem& soft, const RigidEmbedding& rigid_proxies)
+        : rigid_(rigid), soft_(soft), rigid_proxies_(rigid_proxies) {}
 
     /// Throws CouplingError naming the pair if a pair embed-fem names a rigid body that is not dynamic or
     /// whose shape has no proxy (planes, meshes, compounds); changes nothing then.
@@ -56,6 +59,7 @@ private:
 
     RigidSystem& rigid_;
     SoftSystem& soft_;
+    const RigidEmbedding& rigid_proxies_;
     std::vector<Proxy> proxies_;
 };
 

@@ -1,6 +1,7 @@
 // Soft-soft contacts: particles against the other body's triangles (Bridson, Fedkiw & Anderson 2002),
-// found once per step on the predicted positions through a hash grid of each body's triangles and
-// resolved by Gauss-Seidel sweeps of shared impulses (soft_contacts.hpp).
+// found once per step at the start-of-step positions through a hash grid of each body's triangles (their
+// boxes swept over the step) and enforced on the predicted positions by Gauss-Seidel sweeps of shared
+// impulses (soft_contacts.hpp).
 #include "soft/soft_contacts.hpp"
 
 #include <algorithm>
@@ -31,7 +32,15 @@ Vec3 triangle_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
     return len > kTinyArea ? Vec3(n / len) : Vec3(Vec3::Zero());
 }
 
-std::int64_t cell_of(Real x, Real cell) { return static_cast<std::int64_t>(std::floor(x / cell)); }
+// Clamped, so that a far or huge coordinate never overflows the conversion (such a body is about to be
+// contained as a blow-up; the grid only has to stay finite).
+std::int64_t cell_of(Real x, Real cell) {
+    return static_cast<std::int64_t>(std::clamp(std::floor(double(x) / double(cell)), -1e15, 1e15));
+}
+// A particle whose swept box covers more cells than this along an axis tests every triangle's box instead.
+constexpr std::int64_t kMaxQueryCellsPerAxis = 4;
+
+bool finite_box(const Aabb& b) { return b.lo.allFinite() && b.hi.allFinite(); }
 
 // 21 bits per axis: cells further apart than 2^21 share keys, which only adds candidates to test.
 std::uint64_t cell_key(std::int64_t i, std::int64_t j, std::int64_t k) {
@@ -88,22 +97,31 @@ bool SoftContactPass::closed_surface(const std::vector<std::uint32_t>& triangles
 void SoftContactPass::build_grid(Side& s, std::uint32_t entry, Real margin) {
     Grid& g = grids_[entry];
     const SoftBody& b = *s.b;
-    const std::vector<Vec3>& x = b.p.x;  // contacts are found at the start of the step (detect)
+    // Each triangle's box sweeps its nodes from x_n to the predicted positions (a particle meets it only
+    // if their swept boxes overlap within the contact distance `margin`).
+    const std::vector<Vec3>& x = b.p.x;
+    const std::vector<Vec3>& x1 = *s.x;
     Real largest = 0;
     for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3) {
         Aabb box;
-        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[t + k]]);
-        largest = std::max(largest, box.extent().maxCoeff());
+        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[t + k]]), box.grow(x1[b.triangles[t + k]]);
+        if (finite_box(box)) largest = std::max(largest, box.extent().maxCoeff());
     }
     // A fattened triangle box spans at most two cells per axis.
     g.cell = std::max(largest + 2 * margin, Real(1e-6));
     sort_scratch_.clear();
     g.boxes.resize(b.triangles.size() / 3);
+    g.bounds = Aabb();
     for (std::uint32_t t = 0; 3 * std::size_t(t) + 2 < b.triangles.size(); ++t) {
         Aabb box;
-        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[3 * t + k]]);
+        for (int k = 0; k < 3; ++k) box.grow(x[b.triangles[3 * t + k]]), box.grow(x1[b.triangles[3 * t + k]]);
         box = box.fattened(margin);
+        if (!finite_box(box)) {
+            g.boxes[t] = Aabb();  // meets nothing
+            continue;
+        }
         g.boxes[t] = box;
+        g.bounds = g.bounds.merged(box);
         const std::int64_t i0 = cell_of(box.lo.x(), g.cell), i1 = cell_of(box.hi.x(), g.cell);
         const std::int64_t j0 = cell_of(box.lo.y(), g.cell), j1 = cell_of(box.hi.y(), g.cell);
         const std::int64_t k0 = cell_of(box.lo.z(), g.cell), k1 = cell_of(box.hi.z(), g.cell);
@@ -112,6 +130,8 @@ void SoftContactPass::build_grid(Side& s, std::uint32_t entry, Real margin) {
                 for (std::int64_t k = k0; k <= k1; ++k) sort_scratch_.push_back({cell_key(i, j, k), t});
     }
     std::sort(sort_scratch_.begin(), sort_scratch_.end());
+    g.stamp.assign(g.boxes.size(), 0);
+    g.query = 0;
     g.keys.resize(sort_scratch_.size());
     g.tris.resize(sort_scratch_.size());
     for (std::size_t k = 0; k < sort_scratch_.size(); ++k) {
@@ -126,7 +146,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
     // the predicted positions: a particle that passes an edge of the other body within the step (two equal
     // cubes stacked meet edge on edge) is still pushed back the way it came, not out through the face it
     // now finds itself beside.
-    const Grid& g = grids_[eb];
+    Grid& g = grids_[eb];
     const std::vector<Vec3>& xa0 = a.b->p.x;
     const std::vector<Vec3>& xb0 = b.b->p.x;
     const std::vector<Vec3>& xa = *a.x;
@@ -137,26 +157,50 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
     for (std::uint32_t i : surface_[ea]) {
         const Vec3& x0 = xa0[i];
         if (!near.contains(x0)) continue;
-        const std::uint64_t key = cell_key(cell_of(x0.x(), g.cell), cell_of(x0.y(), g.cell), cell_of(x0.z(), g.cell));
-        const auto range = std::equal_range(g.keys.begin(), g.keys.end(), key);
+        // The triangles whose swept boxes overlap the particle's (x_n to its prediction, its thickness
+        // around), each once (stamped), from every cell that box covers.
+        Aabb q;
+        q.grow(x0);
+        q.grow(xa[i]);
+        q = q.fattened(a.b->def.thickness * (1 + kSlop));
+        if (!finite_box(q) || !q.overlaps(g.bounds)) continue;
+        cand_.clear();
+        ++g.query;
+        const auto consider = [&](std::uint32_t t) {
+            if (g.stamp[t] == g.query || !g.boxes[t].overlaps(q)) return;
+            g.stamp[t] = g.query;
+            // Against its own surface a particle skips the triangles it is on or is one edge from (they
+            // touch it by construction).
+            if (self && near_self(i, &tri[3 * std::size_t(t)])) return;
+            cand_.push_back(t);
+        };
+        const Aabb r{q.lo.cwiseMax(g.bounds.lo), q.hi.cwiseMin(g.bounds.hi)};  // no triangle outside the grid's box
+        const std::int64_t i0 = cell_of(r.lo.x(), g.cell), i1 = cell_of(r.hi.x(), g.cell);
+        const std::int64_t j0 = cell_of(r.lo.y(), g.cell), j1 = cell_of(r.hi.y(), g.cell);
+        const std::int64_t k0 = cell_of(r.lo.z(), g.cell), k1 = cell_of(r.hi.z(), g.cell);
+        if (i1 - i0 >= kMaxQueryCellsPerAxis || j1 - j0 >= kMaxQueryCellsPerAxis || k1 - k0 >= kMaxQueryCellsPerAxis) {
+            for (std::uint32_t t = 0; t < g.boxes.size(); ++t) consider(t);  // a particle sweeping the whole body
+        } else
+        for (std::int64_t ci = i0; ci <= i1; ++ci)
+            for (std::int64_t cj = j0; cj <= j1; ++cj)
+                for (std::int64_t ck = k0; ck <= k1; ++ck) {
+                    const auto range = std::equal_range(g.keys.begin(), g.keys.end(), cell_key(ci, cj, ck));
+                    for (auto it = range.first; it != range.second; ++it) consider(g.tris[std::size_t(it - g.keys.begin())]);
+                }
+        if (cand_.empty()) continue;
         // The closest feature of the surface: the triangle whose closest point is nearest, a face
         // interior winning a tie with the edges and corners it meets (its normal is the surface's there).
         Real best = kRealMax;
         std::uint32_t best_t = 0;
         Vec3 best_w = Vec3::Zero();
         bool best_face = false;
-        for (auto it = range.first; it != range.second; ++it) {
-            const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
-            // Against its own surface a particle skips the triangles it is on or is one edge from (they
-            // touch it by construction).
-            if (!g.boxes[t].contains(x0)) continue;  // further than the margin (>= reach) from it
-            if (self && near_self(i, &tri[3 * std::size_t(t)])) continue;
+        for (const std::uint32_t t : cand_) {
             const Vec3 w = closest_on_triangle_weights(x0, xb0[tri[3 * t]], xb0[tri[3 * t + 1]], xb0[tri[3 * t + 2]]);
             const Vec3 on = w.x() * xb0[tri[3 * t]] + w.y() * xb0[tri[3 * t + 1]] + w.z() * xb0[tri[3 * t + 2]];
             const Real d = (x0 - on).norm();
             const bool face = w.minCoeff() > kFeatureTolerance;
             const Real rank = face ? d - kTieDistance : d;
-            if (d >= reach || rank >= best) continue;
+            if (!(d < reach) || !(rank < best)) continue;  // also a degenerate triangle's NaN weights
             best = rank;
             best_t = t;
             best_w = w;
@@ -185,9 +229,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
             // test that is exact there, where one triangle's normal is not). Behind only when clearly so:
             // a particle level with a flat face's inner edge is beside its rim, outside.
             Vec3 pseudo = Vec3::Zero();
-            for (auto it = range.first; it != range.second; ++it) {
-                const std::uint32_t t = g.tris[std::size_t(it - g.keys.begin())];
-                if (!g.boxes[t].contains(x0)) continue;
+            for (const std::uint32_t t : cand_) {
                 const Vec3& p0 = xb0[tri[3 * t]];
                 const Vec3& p1 = xb0[tri[3 * t + 1]];
                 const Vec3& p2 = xb0[tri[3 * t + 2]];
@@ -322,7 +364,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 Side& t = dir == 0 ? b : a;  // triangles
                 const std::uint32_t ep = std::uint32_t(dir == 0 ? i : j), et = std::uint32_t(dir == 0 ? j : i);
                 if (t.b->triangles.empty()) continue;
-                if (!t.grid_built) build_grid(t, et, (t.b->def.thickness + thickest) * (1 + kSlop) + t.travel + fastest);
+                if (!t.grid_built) build_grid(t, et, (t.b->def.thickness + thickest) * (1 + kSlop));
                 detect(p, t, ep, et, reach, false);
             }
         }
@@ -331,7 +373,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
         Side& s = sides[i];
         const SoftBody& b = *s.b;
         if (!s.stepping || !b.def.self_collision || b.triangles.empty() || b.meets_colliders_through_proxy) continue;
-        if (!s.grid_built) build_grid(s, std::uint32_t(i), (b.def.thickness + thickest) * (1 + kSlop) + s.travel + fastest);
+        if (!s.grid_built) build_grid(s, std::uint32_t(i), (b.def.thickness + thickest) * (1 + kSlop));
         build_neighbours(b);
         detect(s, s, std::uint32_t(i), std::uint32_t(i), 2 * b.def.thickness * (1 + kSlop) + s.travel, true);
     }
@@ -354,7 +396,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             if (W <= 0) continue;
             const Vec3 on = c.weights.x() * xb[tri[0]] + c.weights.y() * xb[tri[1]] + c.weights.z() * xb[tri[2]];
             const Real gap = c.normal.dot(xa[c.particle] - on) - (a.b->def.thickness + b.b->def.thickness);
-            if (gap >= 0) continue;
+            if (!(gap < 0)) continue;  // apart, or not finite (a body about to be contained)
             const Real d = -gap / W;  // kg m: the position "impulse"
             xa[c.particle] += wp * d * c.normal;
             for (int q = 0; q < 3; ++q) xb[tri[q]] -= c.weights[q] * wk[q] * d * c.normal;
@@ -409,6 +451,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             };
             // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
             const Real vn = c.normal.dot(relative());
+            if (!std::isfinite(vn)) continue;
             const Real jn = std::max(Real(0), c.impulse + (w.target_vn - vn) / W);
             apply((jn - c.impulse) * c.normal);
             c.impulse = jn;

@@ -86,8 +86,12 @@ private:
         Real cell = 1;
         std::vector<std::uint64_t> keys;
         std::vector<std::uint32_t> tris;
-        std::vector<Aabb> boxes;  ///< per triangle, fattened by the margin: tested before the closest point
+        std::vector<Aabb> boxes;  ///< per triangle: its nodes swept over the step, fattened by the margin
+        std::vector<std::uint32_t> stamp;  ///< per triangle: the last query that tested it
+        std::uint32_t query = 0;
+        Aabb bounds;  ///< of every finite triangle box
     };
+    std::vector<std::uint32_t> cand_;  ///< scratch of detect: one particle's candidate triangles
     std::vector<Grid> grids_;
     std::vector<std::vector<std::uint32_t>> surface_;  ///< per entry: particles on its triangles (or all)
     std::vector<std::uint8_t> mark_;

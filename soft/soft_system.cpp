@@ -61,7 +61,8 @@ SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
     b.triangles = std::move(def.triangles);
     b.attachments = std::move(def.attachments);
     b.rest_volume = b.triangles.empty() ? Real(0) : std::max(Real(0), enclosed_volume(b.triangles, b.p.x));
-    b.closed_surface = SoftContactPass::closed_surface(b.triangles);
+    // Closed and wound outward (a positive volume): only then are the normals the outside's.
+    b.closed_surface = b.rest_volume > 0 && SoftContactPass::closed_surface(b.triangles);
     def.positions.clear();
     def.positions.shrink_to_fit();
     def.masses.clear();
