@@ -130,11 +130,16 @@ bool FemEmbedding::wanted(const CouplingSettings& settings, std::uint32_t o) con
         return false;
     const BodyId id = rigid_.id_of_slot(o);
     if (rigid_proxies_.is_proxy(id)) return false;
+    partners(settings, id, partner_scratch_);
+    return !partner_scratch_.empty();
+}
+
+void FemEmbedding::partners(const CouplingSettings& settings, BodyId rigid, std::vector<std::uint32_t>& out) const {
+    out.clear();
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s)
         if (soft_.slot_alive(s) && !soft_.slot_body(s).meets_soft_bodies_only &&
-            coupling_strategy_of(settings, soft_.id_of_slot(s), id) == CouplingStrategy::EmbedFem)
-            return true;
-    return false;
+            coupling_strategy_of(settings, soft_.id_of_slot(s), rigid) == CouplingStrategy::EmbedFem)
+            out.push_back(s);
 }
 
 void FemEmbedding::drop(Proxy& px) {
@@ -199,13 +204,8 @@ void FemEmbedding::place(const CouplingSettings& settings, Real h) {
     const bool gravity_pending = rigid_.gravity_in_solve();
     for (Proxy& px : proxies_) {
         SoftBody& b = soft_.body(px.soft);
-        b.soft_partners.clear();
-        for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
-            if (!soft_.slot_alive(s) || soft_.slot_body(s).meets_soft_bodies_only) continue;
-            if (coupling_strategy_of(settings, soft_.id_of_slot(s), px.rigid) != CouplingStrategy::EmbedFem) continue;
-            b.soft_partners.push_back(s);
-            soft_.slot_body(s).ignored_owners.push_back(px.rigid.index);
-        }
+        partners(settings, px.rigid, b.soft_partners);
+        for (std::uint32_t s : b.soft_partners) soft_.slot_body(s).ignored_owners.push_back(px.rigid.index);
         // Reset to the body's pose and velocity field (with the gravity the solver adds over the step).
         const std::uint32_t o = px.rigid.index;
         const Transform xf = rigid_.slot_transform(o);

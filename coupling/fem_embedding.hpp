@@ -55,12 +55,15 @@ private:
         std::vector<Vec3> local;  ///< node positions in the rigid body's frame
     };
     bool wanted(const CouplingSettings& settings, std::uint32_t rigid_slot) const;
+    /// The soft bodies (slots, not proxies) paired embed-fem with `rigid`.
+    void partners(const CouplingSettings& settings, BodyId rigid, std::vector<std::uint32_t>& out) const;
     void drop(Proxy& px);
 
     RigidSystem& rigid_;
     SoftSystem& soft_;
     const RigidEmbedding& rigid_proxies_;
     std::vector<Proxy> proxies_;
+    mutable std::vector<std::uint32_t> partner_scratch_;  ///< of wanted()
 };
 
 }  // namespace sinew

@@ -42,6 +42,11 @@ constexpr std::int64_t kMaxQueryCellsPerAxis = 4;
 
 bool finite_box(const Aabb& b) { return b.lo.allFinite() && b.hi.allFinite(); }
 
+// The point of triangle `t` (its three particle indices) at barycentric weights w, in array v.
+Vec3 at(const Vec3& w, const std::vector<Vec3>& v, const std::uint32_t* t) {
+    return w.x() * v[t[0]] + w.y() * v[t[1]] + w.z() * v[t[2]];
+}
+
 // 21 bits per axis: cells further apart than 2^21 share keys, which only adds candidates to test.
 std::uint64_t cell_key(std::int64_t i, std::int64_t j, std::int64_t k) {
     const std::uint64_t m = (std::uint64_t(1) << 21) - 1;
@@ -196,7 +201,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
         bool best_face = false;
         for (const std::uint32_t t : cand_) {
             const Vec3 w = closest_on_triangle_weights(x0, xb0[tri[3 * t]], xb0[tri[3 * t + 1]], xb0[tri[3 * t + 2]]);
-            const Vec3 on = w.x() * xb0[tri[3 * t]] + w.y() * xb0[tri[3 * t + 1]] + w.z() * xb0[tri[3 * t + 2]];
+            const Vec3 on = at(w, xb0, &tri[3 * std::size_t(t)]);
             const Real d = (x0 - on).norm();
             const bool face = w.minCoeff() > kFeatureTolerance;
             const Real rank = face ? d - kTieDistance : d;
@@ -208,7 +213,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
         }
         if (best == kRealMax) continue;
         const std::uint32_t* bt = &tri[3 * std::size_t(best_t)];
-        const Vec3 on0 = best_w.x() * xb0[bt[0]] + best_w.y() * xb0[bt[1]] + best_w.z() * xb0[bt[2]];
+        const Vec3 on0 = at(best_w, xb0, bt);
         const Real d0 = (x0 - on0).norm();
         const Vec3 face_n = triangle_normal(xb0[bt[0]], xb0[bt[1]], xb0[bt[2]]);
         if (face_n.isZero()) continue;  // a degenerate triangle: no normal
@@ -234,7 +239,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
                 const Vec3& p1 = xb0[tri[3 * t + 1]];
                 const Vec3& p2 = xb0[tri[3 * t + 2]];
                 const Vec3 w = closest_on_triangle_weights(x0, p0, p1, p2);
-                if (((w.x() * p0 + w.y() * p1 + w.z() * p2) - on0).norm() > kTieDistance) continue;
+                if ((at(w, xb0, &tri[3 * std::size_t(t)]) - on0).norm() > kTieDistance) continue;
                 // At a corner each triangle counts by its angle there; along an edge both count once.
                 Real weight = 1;
                 for (int k = 0; k < 3; ++k)
@@ -250,7 +255,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
             n = len > 0 && pseudo.dot(out) < -kBehindCosine * len ? Vec3(-out) : out;
         }
         // The gap on the predicted positions, along the normal found at x_n.
-        const Vec3 on = best_w.x() * xb[bt[0]] + best_w.y() * xb[bt[1]] + best_w.z() * xb[bt[2]];
+        const Vec3 on = at(best_w, xb, bt);
         const Real gap = n.dot(xa[i] - on) - rsum;
         if (gap >= rsum * kSlop) continue;
         SoftSoftContact c;
@@ -263,7 +268,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
         c.depth = std::max(Real(0), -gap);
         // Restitution from the approach before the pass (as the rigid solvers' target velocity).
         const std::vector<Vec3>& vb = b.b->p.v;
-        const Vec3 vt = best_w.x() * vb[bt[0]] + best_w.y() * vb[bt[1]] + best_w.z() * vb[bt[2]];
+        const Vec3 vt = at(best_w, vb, bt);
         const Real vn0 = n.dot(a.b->p.v[i] - vt);
         const Real e = std::max(a.b->def.restitution, b.b->def.restitution);
         contacts_.push_back(c);
@@ -394,7 +399,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
             const Real W = wp + c.weights.cwiseAbs2().dot(wk);
             if (W <= 0) continue;
-            const Vec3 on = c.weights.x() * xb[tri[0]] + c.weights.y() * xb[tri[1]] + c.weights.z() * xb[tri[2]];
+            const Vec3 on = at(c.weights, xb, tri);
             const Real gap = c.normal.dot(xa[c.particle] - on) - (a.b->def.thickness + b.b->def.thickness);
             if (!(gap < 0)) continue;  // apart, or not finite (a body about to be contained)
             const Real d = -gap / W;  // kg m: the position "impulse"
@@ -416,7 +421,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             // A side that moves as a rigid body (a rigid body's FEM proxy) is met at the contact point with
             // its rigid velocity field and effective inverse mass 1/M + (r x n) I^-1 (r x n).
             const Vec3 xa0 = a.b->p.x[c.particle];
-            const Vec3 xb0 = c.weights.x() * b.b->p.x[tri[0]] + c.weights.y() * b.b->p.x[tri[1]] + c.weights.z() * b.b->p.x[tri[2]];
+            const Vec3 xb0 = at(c.weights, b.b->p.x, tri);
             const auto rigid_w = [&](const SoftBody::RigidMotion& m, const Vec3& x) {
                 const Vec3 rn = (x - m.com).cross(c.normal);
                 return m.inv_mass + rn.dot(m.inv_inertia * rn);
@@ -446,7 +451,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 const SoftBody::RigidMotion& mb = b.b->as_rigid;
                 const Vec3 vpa = a.rigid ? Vec3(ma.v + ma.w.cross(xa0 - ma.com)) : va[c.particle];
                 const Vec3 vpb = b.rigid ? Vec3(mb.v + mb.w.cross(xb0 - mb.com))
-                                         : Vec3(c.weights.x() * vb[tri[0]] + c.weights.y() * vb[tri[1]] + c.weights.z() * vb[tri[2]]);
+                                         : at(c.weights, vb, tri);
                 return Vec3(vpa - vpb);
             };
             // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
