@@ -352,8 +352,6 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 if (mark_[i]) surf.push_back(i);
         }
     }
-    Real fastest = 0;
-    for (const Side& s : sides) fastest = std::max(fastest, s.travel);
 
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t j = i + 1; j < n; ++j) {
@@ -380,7 +378,7 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
         if (!s.stepping || !b.def.self_collision || b.triangles.empty() || b.meets_colliders_through_proxy) continue;
         if (!s.grid_built) build_grid(s, std::uint32_t(i), (b.def.thickness + thickest) * (1 + kSlop));
         build_neighbours(b);
-        detect(s, s, std::uint32_t(i), std::uint32_t(i), 2 * b.def.thickness * (1 + kSlop) + s.travel, true);
+        detect(s, s, std::uint32_t(i), std::uint32_t(i), 2 * b.def.thickness * (1 + kSlop) + 2 * s.travel, true);
     }
     if (contacts_.empty()) return;
 
