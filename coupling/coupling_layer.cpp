@@ -70,7 +70,7 @@ bool CouplingLayer::any(CouplingStrategy s) const {
 }
 
 void CouplingLayer::begin_step(Real h) {
-    fem_embedding_.place(settings_, h);
+    fem_embedding_.place(settings_, any(CouplingStrategy::EmbedFem), h);
     rows_.reset();
     attach_shares_.clear();
     // Implicit Euler bodies under two-way coupling record their contacts (FEM bodies always do): the

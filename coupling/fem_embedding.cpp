@@ -147,9 +147,7 @@ void FemEmbedding::drop(Proxy& px) {
     px.soft = {};
 }
 
-void FemEmbedding::place(const CouplingSettings& settings, Real h) {
-    bool any = settings.strategy == CouplingStrategy::EmbedFem;
-    for (const CouplingPair& p : settings.pairs) any = any || p.strategy == CouplingStrategy::EmbedFem;
+void FemEmbedding::place(const CouplingSettings& settings, bool any, Real h) {
     // Proxies of bodies gone or no longer embedded go.
     for (Proxy& px : proxies_)
         if (!any || !rigid_.valid(px.rigid) || !soft_.valid(px.soft) || !wanted(settings, px.rigid.index)) drop(px);

@@ -36,7 +36,8 @@ public:
     void check(const CouplingSettings& settings) const;
     /// Before soft IntegrateVelocities: proxies made for newly embedded bodies, dropped for bodies no longer
     /// embedded (or gone), each reset to its body's pose and velocity; partners and ignored colliders set.
-    void place(const CouplingSettings& settings, Real h);
+    /// `any`: some pair (or the world) is embed-fem.
+    void place(const CouplingSettings& settings, bool any, Real h);
     /// After soft DetectCollisions: a proxy a soft body woke wakes its rigid body.
     void wake_touched();
     /// After soft SolveVelocities: each proxy's momentum change to its rigid body; one record per contact.

@@ -382,19 +382,34 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
     }
     if (contacts_.empty()) return;
 
-    auto inv_mass = [&](const Side& s, std::uint32_t i) { return s.inv_mass(i); };
+    // One contact's sides, the triangle's particles and the inverse masses the sweeps share impulses by.
+    struct Joined {
+        SoftSoftContact& c;
+        const Side& a;
+        const Side& b;
+        const std::uint32_t* tri;
+        Real wp;
+        Vec3 wk;
+    };
+    const auto join = [&](std::size_t k) {
+        SoftSoftContact& c = contacts_[k];
+        const Side& a = sides[work_[k].ea];
+        const Side& b = sides[work_[k].eb];
+        const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
+        return Joined{c, a, b, tri, a.inv_mass(c.particle), Vec3(b.inv_mass(tri[0]), b.inv_mass(tri[1]), b.inv_mass(tri[2]))};
+    };
     // Gauss-Seidel: positions out of each other, then the normal velocities and friction.
     for (int it = 0; it < kIterations; ++it)
         for (std::size_t k = 0; k < contacts_.size(); ++k) {
-            SoftSoftContact& c = contacts_[k];
-            Work& w = work_[k];
-            const Side& a = sides[w.ea];
-            const Side& b = sides[w.eb];
-            const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
+            const Joined j = join(k);
+            SoftSoftContact& c = j.c;
+            const Side& a = j.a;
+            const Side& b = j.b;
+            const std::uint32_t* tri = j.tri;
+            const Real wp = j.wp;
+            const Vec3& wk = j.wk;
             std::vector<Vec3>& xa = *a.x;
             std::vector<Vec3>& xb = *b.x;
-            const Real wp = inv_mass(a, c.particle);
-            const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
             const Real W = wp + c.weights.cwiseAbs2().dot(wk);
             if (W <= 0) continue;
             const Vec3 on = at(c.weights, xb, tri);
@@ -403,19 +418,19 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             const Real d = -gap / W;  // kg m: the position "impulse"
             xa[c.particle] += wp * d * c.normal;
             for (int q = 0; q < 3; ++q) xb[tri[q]] -= c.weights[q] * wk[q] * d * c.normal;
-            w.push += d;
+            work_[k].push += d;
         }
     for (int it = 0; it < kIterations; ++it)
         for (std::size_t k = 0; k < contacts_.size(); ++k) {
-            SoftSoftContact& c = contacts_[k];
-            Work& w = work_[k];
-            const Side& a = sides[w.ea];
-            const Side& b = sides[w.eb];
-            const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
+            const Joined j = join(k);
+            SoftSoftContact& c = j.c;
+            const Side& a = j.a;
+            const Side& b = j.b;
+            const std::uint32_t* tri = j.tri;
+            const Real wp = j.wp;
+            const Vec3& wk = j.wk;
             std::vector<Vec3>& va = a.b->p.v;
             std::vector<Vec3>& vb = b.b->p.v;
-            const Real wp = inv_mass(a, c.particle);
-            const Vec3 wk(inv_mass(b, tri[0]), inv_mass(b, tri[1]), inv_mass(b, tri[2]));
             // A side that moves as a rigid body (a rigid body's FEM proxy) is met at the contact point with
             // its rigid velocity field and effective inverse mass 1/M + (r x n) I^-1 (r x n).
             const Vec3 xa0 = a.b->p.x[c.particle];
@@ -455,12 +470,12 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
             // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
             const Real vn = c.normal.dot(relative());
             if (!std::isfinite(vn)) continue;
-            const Real jn = std::max(Real(0), c.impulse + (w.target_vn - vn) / W);
+            const Real jn = std::max(Real(0), c.impulse + (work_[k].target_vn - vn) / W);
             apply((jn - c.impulse) * c.normal);
             c.impulse = jn;
             // Coulomb friction, bounded by mu times the normal impulse including the position pushes.
             const Real mu = std::sqrt(std::max(Real(0), a.b->def.friction * b.b->def.friction));
-            const Real budget = mu * (c.impulse + w.push / h);
+            const Real budget = mu * (c.impulse + work_[k].push / h);
             const Vec3 vr = relative();
             const Vec3 vt = vr - c.normal.dot(vr) * c.normal;
             Vec3 jt = c.friction - vt / W;
