@@ -1,6 +1,7 @@
 // The coupling layer (coupling/coupling_layer.hpp): hooks, strategy choice, reactions and reports.
 #include "coupling/coupling_layer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -9,6 +10,7 @@ namespace sinew {
 CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
     : pipeline_(pipeline), rigid_(rigid), soft_(soft), kinematics_(pipeline, rigid, soft), rows_(soft, settings_),
       embedding_(pipeline, rigid, soft), fem_embedding_(rigid, soft, embedding_) {
+    embedding_.set_before_step([this] { resolve_if_changed(); });
     rigid_.add_rows(&rows_);
     const int soft_index = pipeline.find_system(soft.name());
     hooks_[0] = pipeline.add_hook(soft_index, Stage::SolveVelocities, HookWhen::Before,
@@ -53,6 +55,33 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
             throw CouplingError("coupling pair " + std::to_string(k) + ": rigid body " + std::to_string(p.rigid.index) +
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
+    if (s.strategy == CouplingStrategy::Auto) {
+        apply_auto(s);
+    } else {
+        apply(s);
+        picks_.clear();
+    }
+    requested_ = s;
+}
+
+void CouplingLayer::apply_auto(const CouplingSettings& requested) {
+    std::vector<StrategyPick> picks;
+    apply(resolve(requested, picks));
+    picks_ = std::move(picks);
+}
+
+CouplingSettings CouplingLayer::resolve(const CouplingSettings& requested, std::vector<StrategyPick>& picks) {
+    held_.erase(std::remove_if(held_.begin(), held_.end(), [&](SoftBodyId id) { return !soft_.valid(id); }), held_.end());
+    picks = pick_strategies(rigid_, soft_, embedding_, fem_embedding_, requested.tolerance, held_);
+    CouplingSettings out = requested;
+    out.strategy = CouplingStrategy::OneWay;  // a body created since the pick, until the next one
+    out.pairs.clear();
+    for (const StrategyPick& p : picks) out.pairs.push_back({p.soft, BodyId{}, p.strategy});
+    out.pairs.insert(out.pairs.end(), requested.pairs.begin(), requested.pairs.end());  // the user's win
+    return out;
+}
+
+void CouplingLayer::apply(const CouplingSettings& s) {
     fem_embedding_.check(s);
     embedding_.update_membership(s);  // CouplingError (a body no proxy can be made of) changes nothing
     if (s.substeps != settings_.substeps) {
@@ -60,6 +89,32 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
         kinematics_.set_substeps(s.substeps);
     }
     settings_ = s;
+    picked_bodies_[0] = rigid_.body_count() - embedding_.count();
+    picked_bodies_[1] = soft_.body_count() - fem_embedding_.count();
+}
+
+void CouplingLayer::refresh_embedding() {
+    if (requested_.strategy == CouplingStrategy::Auto) apply_auto(requested_);
+    else embedding_.update_membership(settings_);
+}
+
+void CouplingLayer::need_proxy(SoftBodyId soft) {
+    if (requested_.strategy != CouplingStrategy::Auto || !soft_.valid(soft)) return;
+    if (std::find(held_.begin(), held_.end(), soft) == held_.end()) held_.push_back(soft);
+    apply_auto(requested_);
+}
+
+void CouplingLayer::resolve_if_changed() {
+    if (requested_.strategy != CouplingStrategy::Auto) return;
+    if (rigid_.body_count() - embedding_.count() == picked_bodies_[0] &&
+        soft_.body_count() - fem_embedding_.count() == picked_bodies_[1])
+        return;
+    try {
+        apply_auto(requested_);
+    } catch (const CouplingError&) {
+        // A body whose proxy cannot be made (a node not finite): the last picks stay; the soft step's
+        // faults tell.
+    }
 }
 
 bool CouplingLayer::any(CouplingStrategy s) const {

@@ -30,6 +30,7 @@
 #include "coupling/one_way_coupling.hpp"
 #include "coupling/particle_rows.hpp"
 #include "coupling/rigid_embedding.hpp"
+#include "coupling/strategy_picker.hpp"
 
 namespace sinew {
 
@@ -45,19 +46,29 @@ public:
     CouplingLayer(const CouplingLayer&) = delete;
     CouplingLayer& operator=(const CouplingLayer&) = delete;
 
-    const CouplingSettings& settings() const { return settings_; }
+    /// The settings as set (the strategy may be "auto").
+    const CouplingSettings& settings() const { return requested_; }
+    /// The settings acting: as set, or under "auto" one pair per soft body with its pick, then the pairs set.
+    const CouplingSettings& effective_settings() const { return settings_; }
     /// Validates (CouplingError naming the field, or the pair and the body it names; nothing changes)
-    /// and applies from the next step.
+    /// and applies from the next step (under "auto", picks at once).
     void set_settings(const CouplingSettings& s);
     /// The strategy acting between two bodies now.
     CouplingStrategy strategy(SoftBodyId soft, BodyId rigid) const { return coupling_strategy_of(settings_, soft, rigid); }
+    /// Under "auto": the last picks, one per soft body, with their reasons (empty otherwise). Picked again
+    /// when the settings are set, on refresh_embedding() and need_proxy(), and at a step's start when
+    /// bodies were added or removed since (not when a body's mass or type changes: set the settings again).
+    const std::vector<StrategyPick>& picks() const { return picks_; }
+    /// A joint is to hold soft body `soft` (through its rigid proxy). Under "auto" the body is embedded from
+    /// now on (rule 1 of coupling/strategy_picker.hpp); under any other strategy nothing changes.
+    void need_proxy(SoftBodyId soft);
     /// What soft bodies did to rigid bodies in the last step, one record per (particle, rigid body)
     /// contact (two-way rows and reactions sent back; the one-way contacts push nothing back).
     const std::vector<CouplingImpulse>& impulses() const { return impulses_; }
     OneWayCoupling& kinematics() { return kinematics_; }
     /// Proxies follow soft bodies created, destroyed, pinned or attached since the last step now rather
     /// than at the next step's start (RigidEmbedding::update_membership).
-    void refresh_embedding() { embedding_.update_membership(settings_); }
+    void refresh_embedding();
     /// Embedded soft bodies and their rigid proxies (strategy embed-rigid).
     RigidEmbedding& embedding() { return embedding_; }
     const RigidEmbedding& embedding() const { return embedding_; }
@@ -65,6 +76,14 @@ public:
     const FemEmbedding& fem_embedding() const { return fem_embedding_; }
 
 private:
+    /// Under "auto": the picks for the bodies now, and the effective settings they give.
+    CouplingSettings resolve(const CouplingSettings& requested, std::vector<StrategyPick>& picks);
+    /// Picks and applies; throws CouplingError as apply does, picks_ unchanged then.
+    void apply_auto(const CouplingSettings& requested);
+    /// Makes `effective` act (proxies made or dropped, sub-steps set).
+    void apply(const CouplingSettings& effective);
+    /// Before each step (RigidEmbedding::set_before_step): picks again if bodies came or went.
+    void resolve_if_changed();
     void begin_step(Real h);
     /// Two-way: the impulses the rigid bodies' shares gave particles in implicit Euler's solve
     /// (SoftBody::contact_share_impulse), sent back inside the rigid solve.
@@ -112,7 +131,11 @@ private:
     Pipeline& pipeline_;
     RigidSystem& rigid_;
     SoftSystem& soft_;
-    CouplingSettings settings_;
+    CouplingSettings requested_;
+    CouplingSettings settings_;  ///< effective: never "auto"
+    std::vector<StrategyPick> picks_;
+    std::vector<SoftBodyId> held_;             ///< soft bodies joints hold (need_proxy)
+    std::size_t picked_bodies_[2] = {0, 0};    ///< rigid and soft bodies (proxies left out) at the last pick
     OneWayCoupling kinematics_;
     ParticleRows rows_;
     RigidEmbedding embedding_;

@@ -7,7 +7,7 @@
 namespace sinew {
 
 namespace {
-const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem"};
+const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem", "auto"};
 static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
 }  // namespace
 
@@ -44,6 +44,12 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         return "coupling gain must be in [0, 1], got " + to_text(s.gain);
     if (s.substeps < 1 || s.substeps > 64)
         return "coupling substeps must be in [1, 64], got " + std::to_string(s.substeps);
+    if (!std::isfinite(s.tolerance) || s.tolerance <= 0 || s.tolerance > 1000)
+        return "coupling tolerance must be in (0, 1000] m, got " + to_text(s.tolerance);
+    if (s.strategy == CouplingStrategy::Auto && s.substeps > 1)
+        return "coupling substeps = " + std::to_string(s.substeps) +
+               " cannot go with the strategy \"auto\" (it picks two-way or embedding where the soft body pushes "
+               "back; those exchange within one step of both systems)";
     if (s.substeps > 1) {
         const auto passive = [](CouplingStrategy c) { return c == CouplingStrategy::OneWay || c == CouplingStrategy::Hybrid; };
         bool ok = passive(s.strategy);
@@ -58,6 +64,9 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         if (std::size_t(p.strategy) >= std::size_t(CouplingStrategy::Count))
             return "coupling pair " + std::to_string(k) + ": strategy " + std::to_string(int(p.strategy)) +
                    " is unknown (known: " + coupling_strategy_list() + ")";
+        if (p.strategy == CouplingStrategy::Auto)
+            return "coupling pair " + std::to_string(k) +
+                   ": \"auto\" is a world strategy (it picks per soft body); a pair names the strategy it wants";
         if (p.soft.is_null()) return "coupling pair " + std::to_string(k) + ": no soft body";
         if (p.strategy == CouplingStrategy::EmbedRigid && !p.rigid.is_null())
             return "coupling pair " + std::to_string(k) +

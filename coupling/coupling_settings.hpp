@@ -36,6 +36,9 @@
 //             step, which meets the soft bodies paired with it through the soft-soft contacts; what those
 //             contacts gave its nodes, summed to a force and a torque about the centre of mass, goes to the
 //             rigid body (coupling/fem_embedding.hpp). Per pair or per world.
+//   auto      per world: every soft body gets the cheapest of the above expected to stay within
+//             `tolerance` (coupling/strategy_picker.hpp: the rules and the measurements they rest on);
+//             pairs the settings name keep their strategy.
 #pragma once
 
 #include <cstdint>
@@ -47,9 +50,13 @@
 
 namespace sinew {
 
-enum class CouplingStrategy : std::uint8_t { OneWay, TwoWay, Hybrid, Interleaved, OneSolver, EmbedRigid, EmbedFem, Count };
+enum class CouplingStrategy : std::uint8_t {
+    OneWay, TwoWay, Hybrid, Interleaved, OneSolver, EmbedRigid, EmbedFem,
+    Auto,  ///< the world's only: resolved per soft body into one of the others (coupling/strategy_picker.hpp)
+    Count
+};
 
-/// "one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem".
+/// "one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem", "auto".
 const char* coupling_strategy_name(CouplingStrategy s);
 /// Parses a name of coupling_strategy_name (false if unknown).
 bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);
@@ -75,6 +82,9 @@ struct CouplingSettings {
     /// be one-way or hybrid (two-way and interleaved exchange within one step of both systems); hybrid's
     /// reaction from the sub-steps after the first reaches the rigid bodies in the next step.
     int substeps = 1;
+    /// Auto: the position error (m) the picked strategies should stay within, against a converged run
+    /// of the same scene (docs/compare.md), in (0, 1000].
+    Real tolerance = Real(0.01);
     /// Later entries win over earlier ones; a pair naming one rigid body wins over one naming none.
     std::vector<CouplingPair> pairs;
 };

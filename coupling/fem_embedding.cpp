@@ -116,6 +116,12 @@ bool FemEmbedding::is_proxy(SoftBodyId soft) const {
     return false;
 }
 
+std::size_t FemEmbedding::count() const {
+    std::size_t n = 0;
+    for (const Proxy& px : proxies_) n += soft_.valid(px.soft) ? 1 : 0;
+    return n;
+}
+
 SoftBodyId FemEmbedding::proxy(BodyId rigid) const {
     for (const Proxy& px : proxies_)
         if (px.rigid == rigid) return px.soft;

@@ -44,6 +44,8 @@ public:
     void send_back(std::vector<CouplingImpulse>& sent);
 
     bool is_proxy(SoftBodyId soft) const;
+    /// Proxies alive now.
+    std::size_t count() const;
     /// The proxy of an embedded rigid body (null if it has none).
     SoftBodyId proxy(BodyId rigid) const;
     /// The proxy's surface and tets in the body's frame for a shape (false: no proxy for that shape).

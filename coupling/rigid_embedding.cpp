@@ -236,6 +236,7 @@ void RigidEmbedding::ignore_attachment_targets(const SoftBody& b, Proxy& px) {
 }
 
 void RigidEmbedding::begin_step(Real) {
+    if (before_step_) before_step_();
     try {
         update_membership(settings_);  // soft bodies created, destroyed or pinned since
     } catch (const CouplingError&) {

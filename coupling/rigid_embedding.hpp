@@ -34,6 +34,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "coupling/coupling_settings.hpp"
@@ -57,6 +58,9 @@ public:
     /// pinning soft bodies for the proxies to follow at once. Throws CouplingError naming a soft body
     /// whose proxy cannot be made (a node that is not finite) before creating anything.
     void update_membership(const CouplingSettings& settings);
+    /// Called first in every step, before the membership is updated: the coupling layer's "auto" strategy
+    /// resolves there when bodies came or went (its hooks run after this layer's).
+    void set_before_step(std::function<void()> f) { before_step_ = std::move(f); }
     /// Is `rigid` a proxy this layer made (its soft body may be gone since the last update)?
     bool is_proxy(BodyId rigid) const;
     /// The proxy of soft body `id`, or a null id if it is not embedded.
@@ -138,6 +142,7 @@ private:
     RigidSystem& rigid_;
     SoftSystem& soft_;
     CouplingSettings settings_;
+    std::function<void()> before_step_;
     std::vector<Proxy> proxies_;  ///< by soft slot (body null: not embedded)
     /// By rigid slot: the soft slot whose proxy took that rigid slot last, or kNoSoft (soft_of and is_proxy
     /// in constant time). Set when a proxy is made, cleared when this layer destroys it; an entry whose

@@ -129,9 +129,9 @@ TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][
     Trampoline t = make_trampoline();
     // A C caller can pass any int as the enum; in C++ an out-of-range enum is UB, so the call is made
     // from C (tests/c_api_enum_calls.c).
-    CHECK(sinew_test_set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_test_set_coupling_int(t.world, 99, 1) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "not a sinew_coupling"));
-    CHECK(sinew_test_set_coupling_int(t.world, 7, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
+    CHECK(sinew_test_set_coupling_int(t.world, 8, 1) == SINEW_ERROR_INVALID_ARGUMENT);  // one past the last
     CHECK(sinew_world_set_coupling(t.world, SINEW_COUPLING_HYBRID, 2.0f) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "gain"));
     sinew_coupling c;
@@ -144,5 +144,40 @@ TEST_CASE("C API: bad coupling arguments are refused, nothing changes", "[capi][
     sinew_body_id stale_body = t.ball;
     stale_body.generation += 1;
     CHECK(sinew_world_set_pair_coupling(t.world, t.cloth, stale_body, SINEW_COUPLING_TWO_WAY) == SINEW_ERROR_STALE_ID);
+    sinew_world_destroy(t.world);
+}
+
+TEST_CASE("C API: the auto coupling strategy picks two-way for a pinned cloth under a ball, one-way past its size, and embeds it for a joint",
+          "[capi][coupling][auto]") {
+    Trampoline t = make_trampoline();
+    REQUIRE(sinew_world_set_coupling(t.world, SINEW_COUPLING_AUTO, 1) == SINEW_OK);
+    sinew_coupling c = SINEW_COUPLING_ONE_WAY;
+    REQUIRE(sinew_world_get_coupling(t.world, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_AUTO);
+    // Pinned, the cloth can stop the ball: one-way would let it through, an error up to the cloth's size
+    // (2.8 m), over the default tolerance of 1 cm.
+    REQUIRE(sinew_world_get_pair_coupling(t.world, t.cloth, t.ball, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_TWO_WAY);
+    // A tolerance past the cloth's size: one-way is within it.
+    REQUIRE(sinew_world_set_coupling_tolerance(t.world, 5) == SINEW_OK);
+    REQUIRE(sinew_world_get_pair_coupling(t.world, t.cloth, t.ball, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_ONE_WAY);
+    CHECK(sinew_world_set_coupling_tolerance(t.world, -1) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::strstr(sinew_last_error(), "tolerance"));
+    CHECK(sinew_world_set_coupling_tolerance(t.world, std::nanf("")) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(sinew_world_set_pair_coupling(t.world, t.cloth, t.ball, SINEW_COUPLING_AUTO) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK(std::strstr(sinew_last_error(), "world strategy"));
+    CHECK(sinew_world_get_pair_coupling(t.world, t.cloth, t.ball, nullptr) == SINEW_ERROR_NULL_ARGUMENT);
+    REQUIRE(sinew_world_set_coupling_tolerance(t.world, 0.01f) == SINEW_OK);
+    // Two-way holds the 1 kg ball on the 0.5 kg cloth pinned at 1 m: after a second it rests on it, sagging.
+    for (int k = 0; k < 60; ++k) REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);
+    sinew_transform xf;
+    REQUIRE(sinew_body_get_transform(t.ball, &xf) == SINEW_OK);
+    CHECK(xf.p.y > 0.5f);
+    // Asking for the proxy says a joint is to hold the cloth: auto embeds it.
+    sinew_body_id proxy;
+    REQUIRE(sinew_world_get_soft_proxy(t.world, t.cloth, &proxy) == SINEW_OK);
+    REQUIRE(sinew_world_get_pair_coupling(t.world, t.cloth, sinew_body_id{0, 0, 0}, &c) == SINEW_OK);
+    CHECK(c == SINEW_COUPLING_EMBED_RIGID);
     sinew_world_destroy(t.world);
 }

@@ -4,6 +4,7 @@
 //   sinew compare SCENE.json [--strategies LIST] [--steps N] [--reference STRATEGY] [--reference-divide N]
 //                 [--chart FILE.png] [--markdown FILE.md]
 //   sinew compare --all [--scene-dir DIR] [--steps N] [--chart-dir DIR] [--markdown FILE.md]
+//   sinew compare SCENE.json... | --all  --recommend [--tolerance T]
 //
 // The reference is a strategy (the scene's "compare_reference", two-way by default) run with its step
 // divided by N (8); the same run at
@@ -56,6 +57,7 @@ std::vector<Variant> default_variants() {
     v.push_back({S::EmbedRigid, 1, 1, 2});
     v.push_back({S::EmbedFem, 1, 1, 1});
     v.push_back({S::EmbedFem, 1, 1, 2});
+    v.push_back({S::Auto, 1, 1, 1});
     return v;
 }
 
@@ -122,15 +124,33 @@ std::string mm(double m) {
     return b;
 }
 
-std::string markdown_table(const std::string& scene, const std::string& reference, const Errors& check,
-                           const std::vector<Row>& rows, const std::string& chart_link) {
+/// "cube1 embed-rigid, cube2 embed-rigid": what auto picked, by the scene's names.
+std::string picks_text(const SceneDesc& scene, const std::vector<StrategyPick>& picks) {
+    std::string out;
+    for (const StrategyPick& p : picks) {
+        if (!out.empty()) out += ", ";
+        // Soft bodies are made in the scene's order, so a body's slot is its index in the scene.
+        out += (p.soft.index < scene.soft_bodies.size() ? scene.soft_bodies[p.soft.index].name : "soft " + std::to_string(p.soft.index)) +
+               " " + coupling_strategy_name(p.strategy);
+    }
+    return out;
+}
+
+std::string markdown_table(const std::string& name, const std::string& reference, const Errors* check,
+                           const SceneDesc& scene, const std::vector<Row>& rows, const std::string& chart_link) {
     std::ostringstream o;
-    o << "### " << scene << "\n\n"
-      << "Against the reference, " << reference << " (halving its step again moves it by " << mm(check.position_rms)
-      << " mm RMS, " << mm(check.final_max) << " mm at the end). Position errors over every step of the run, rigid "
+    o << "### " << name << "\n\n" << "Against the reference, " << reference;
+    if (check)
+        o << " (halving its step again moves it by " << mm(check->position_rms) << " mm RMS, " << mm(check->final_max)
+          << " mm at the end)";
+    o << ". Position errors over every step of the run, rigid "
       << "centres and soft nodes; *exchanged*: the impulse soft bodies gave dynamic rigid bodies, relative to the "
-      << "reference's; **bold**: on the Pareto front of time against position RMS.\n\n"
-      << "| variant | ms/step | position RMS (mm) | rigid max (mm) | soft max (mm) | final max (mm) | exchanged error | "
+      << "reference's; **bold**: on the Pareto front of time against position RMS.\n\n";
+    for (const Row& r : rows)
+        if (r.variant.strategy == CouplingStrategy::Auto)
+            o << "*auto* (tolerance " << mm(r.variant.tolerance > 0 ? r.variant.tolerance : scene.coupling.settings.tolerance)
+              << " mm) picked: " << picks_text(scene, r.rec.picks) << ".\n\n";
+    o << "| variant | ms/step | position RMS (mm) | rigid max (mm) | soft max (mm) | final max (mm) | exchanged error | "
          "penetration (mm) | finite |\n|---|---|---|---|---|---|---|---|---|\n";
     for (const Row& r : rows) {
         char ms[32], ex[32];
@@ -142,7 +162,7 @@ std::string markdown_table(const std::string& scene, const std::string& referenc
           << (r.rec.finite ? mm(r.err.final_max) : "-") << " | " << (r.rec.finite ? ex : "-") << " | "
           << mm(r.rec.max_penetration) << " | " << (r.rec.finite ? "yes" : "**no**") << " |\n";
     }
-    if (!chart_link.empty()) o << "\n![" << scene << ": position error against time](" << chart_link << ")\n";
+    if (!chart_link.empty()) o << "\n![" << name << ": position error against time](" << chart_link << ")\n";
     o << "\n";
     return o.str();
 }
@@ -205,9 +225,46 @@ std::string slug(const std::string& label) {
     return out;
 }
 
+/// `sinew compare --check-auto`: did auto stay within the scene's tolerance, and pick nothing costlier than
+/// the reference's strategy? One JSON line; false if not.
+bool check_auto(const std::string& name, const SceneDesc& scene, CouplingStrategy reference, const std::vector<Row>& rows,
+                bool table) {
+    const Row* run = nullptr;
+    for (const Row& r : rows)
+        if (r.variant.strategy == CouplingStrategy::Auto) run = &r;
+    nlohmann::json j;
+    j["suite"] = "compare";
+    j["scene"] = name;
+    j["variant"] = "auto-check";
+    const Real tolerance = run && run->variant.tolerance > 0 ? run->variant.tolerance : scene.coupling.settings.tolerance;
+    j["tolerance"] = round6(double(tolerance));
+    bool ok = run && run->rec.finite && run->err.position_rms <= double(tolerance);
+    bool cheap = run != nullptr;
+    nlohmann::json picks = nlohmann::json::array();
+    if (run)
+        for (const StrategyPick& p : run->rec.picks) {
+            picks.push_back(coupling_strategy_name(p.strategy));
+            cheap = cheap && strategy_cost_rank(p.strategy) <= strategy_cost_rank(reference);
+        }
+    j["picks"] = picks;
+    j["position_rms"] = run && run->rec.finite ? nlohmann::json(round6(run->err.position_rms)) : nlohmann::json(nullptr);
+    j["within_tolerance"] = ok;
+    j["reference_strategy"] = coupling_strategy_name(reference);
+    j["not_costlier_than_reference"] = cheap;
+    if (!table) std::cout << j.dump() << std::endl;
+    if (!ok || !cheap)
+        std::cerr << "sinew compare: " << name << ": auto "
+                  << (!run ? "did not run"
+                           : !ok ? "is " + mm(run->err.position_rms) + " mm RMS off, over the tolerance of " + mm(tolerance) + " mm"
+                                 : std::string("picked a strategy costlier than the reference's ") + coupling_strategy_name(reference))
+                  << "\n";
+    return ok && cheap;
+}
+
 std::string compare_scene(const std::string& path, const std::vector<Variant>& variants, int steps_arg,
                           const CouplingStrategy* reference_override, int reference_divide, const std::string& chart,
-                          const std::string& markdown, const std::string& record_dir, bool table, bool& all_finite) {
+                          const std::string& markdown, const std::string& record_dir, bool table, bool reference_check,
+                          bool check, bool& all_finite, bool& auto_ok) {
     const SceneDesc scene = parse_scene_file(path);
     const CouplingStrategy reference_strategy = reference_override ? *reference_override : scene.coupling.compare_reference;
     const int steps = steps_arg > 0 ? steps_arg : scene.steps;
@@ -221,21 +278,24 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
     progress.set_detail("reference " + ref.label());
     const Recording reference = compare::run_variant(scene, ref, steps, record_path("reference " + ref.label()));
     progress.update(1);
-    progress.set_detail("reference check " + ref2.label());
-    const Recording finer = compare::run_variant(scene, ref2, steps);
-    progress.update(2);
     if (!reference.finite) throw std::runtime_error(name + ": the reference run (" + ref.label() + ") is not finite");
-    const Errors check = compare::errors_against(finer, reference);
-    nlohmann::json cj;
-    cj["suite"] = "compare";
-    cj["scene"] = name;
-    cj["variant"] = "reference-check";
-    cj["reference"] = ref.label();
-    cj["finer"] = ref2.label();
-    cj["position_rms"] = round6(check.position_rms);
-    cj["final_max"] = round6(check.final_max);
-    cj["finite"] = finer.finite;
-    if (!table) std::cout << cj.dump() << std::endl;
+    Errors noise;  // the reference against itself at half its step
+    if (reference_check) {
+        progress.set_detail("reference check " + ref2.label());
+        const Recording finer = compare::run_variant(scene, ref2, steps);
+        noise = compare::errors_against(finer, reference);
+        nlohmann::json cj;
+        cj["suite"] = "compare";
+        cj["scene"] = name;
+        cj["variant"] = "reference-check";
+        cj["reference"] = ref.label();
+        cj["finer"] = ref2.label();
+        cj["position_rms"] = round6(noise.position_rms);
+        cj["final_max"] = round6(noise.final_max);
+        cj["finite"] = finer.finite;
+        if (!table) std::cout << cj.dump() << std::endl;
+    }
+    progress.update(2);
 
     std::vector<Row> rows;
     for (const Variant& v : variants) {
@@ -265,15 +325,30 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
     mark_pareto(rows);
     if (!table)
         for (const Row& r : rows) std::cout << row_json(name, r).dump() << std::endl;
+    if (check) auto_ok = check_auto(name, scene, reference_strategy, rows, table) && auto_ok;
     bool charted = false;
     if (!chart.empty()) {
-        charted = write_chart(name, rows, check.position_rms, chart);
+        charted = write_chart(name, rows, noise.position_rms, chart);
         if (!charted) std::cerr << "sinew compare: gnuplot failed; no chart\n";
     }
     const std::string link = charted && !markdown.empty() ? bench::relative_to(chart, markdown) : "";
-    const std::string md = markdown_table(name, ref.label(), check, rows, link);
+    const std::string md = markdown_table(name, ref.label(), reference_check ? &noise : nullptr, scene, rows, link);
     if (table) std::cout << md;
     return md;
+}
+
+/// `sinew compare --recommend`: what auto picks for each soft body of the scene, and why (no run).
+void recommend_scene(const std::string& path, double tolerance) {
+    SceneDesc scene = parse_scene_file(path);
+    scene.coupling.settings.strategy = CouplingStrategy::Auto;
+    scene.coupling.settings.substeps = 1;
+    scene.coupling.pairs.clear();
+    if (tolerance > 0) scene.coupling.settings.tolerance = Real(tolerance);
+    const std::unique_ptr<World> w = build_world(scene);
+    const std::string name = scene.name.empty() ? std::filesystem::path(path).stem().string() : scene.name;
+    std::cout << name << " (tolerance " << mm(scene.coupling.settings.tolerance) << " mm):\n";
+    for (const StrategyPick& p : w->coupling().picks())
+        std::cout << "  " << picks_text(scene, {p}) << ": " << p.reason << "\n";
 }
 
 int run_compare(const std::vector<std::string>& args) {
@@ -281,20 +356,32 @@ int run_compare(const std::vector<std::string>& args) {
     std::vector<std::string> strategies;
     std::string chart, chart_dir, markdown, record_dir, scene_dir = "demos/scenes";
     int steps = 0, reference_divide = 8;
+    double tolerance = 0;
     CouplingStrategy reference = CouplingStrategy::TwoWay;
-    bool all = false, reference_given = false, table = false;
+    bool all = false, reference_given = false, table = false, recommend = false, check = false, reference_check = true;
     for (std::size_t i = 0; i < args.size(); ++i) {
         const std::string& a = args[i];
         if (a == "--all") all = true;
         else if (a == "--table") table = true;
+        else if (a == "--recommend") recommend = true;
+        else if (a == "--check-auto") check = true;
+        else if (a == "--no-reference-check") reference_check = false;
+        else if (is_option(a, "--tolerance")) {
+            const std::string t = option_value(args, i, "--tolerance");
+            char* end = nullptr;
+            tolerance = std::strtod(t.c_str(), &end);
+            if (t.empty() || *end != 0 || !(tolerance > 0 && tolerance <= 1000))
+                throw UsageError("--tolerance: a length in (0, 1000] m, got \"" + t + "\"");
+        }
         else if (is_option(a, "--strategies")) strategies = split_list(option_value(args, i, "--strategies"));
         else if (is_option(a, "--steps")) steps = int(parse_int("--steps", option_value(args, i, "--steps"), 1, 1000000));
         else if (is_option(a, "--reference-divide"))
             reference_divide = int(parse_int("--reference-divide", option_value(args, i, "--reference-divide"), 1, 64));
         else if (is_option(a, "--reference")) {
             const std::string s = option_value(args, i, "--reference");
-            if (!parse_coupling_strategy(s, reference))
-                throw UsageError("--reference: unknown strategy \"" + s + "\" (known: " + coupling_strategy_list() + ")");
+            if (!parse_coupling_strategy(s, reference) || reference == CouplingStrategy::Auto)
+                throw UsageError("--reference: unknown strategy \"" + s + "\" (known: " + coupling_strategy_list() +
+                                 "; the reference cannot be auto)");
             reference_given = true;
         } else if (is_option(a, "--chart")) chart = option_value(args, i, "--chart");
         else if (is_option(a, "--chart-dir")) chart_dir = option_value(args, i, "--chart-dir");
@@ -317,8 +404,13 @@ int run_compare(const std::vector<std::string>& args) {
         std::filesystem::create_directories(record_dir, ec);
         if (ec) throw UsageError("--record-dir: cannot create " + record_dir + ": " + ec.message());
     }
+    if (recommend) {
+        for (const std::string& path : scenes) recommend_scene(path, tolerance);
+        return kExitOk;
+    }
     std::vector<Variant> variants;
-    for (const Variant& v : default_variants()) {
+    for (Variant v : default_variants()) {
+        v.tolerance = Real(tolerance);
         if (strategies.empty()) {
             variants.push_back(v);
             continue;
@@ -330,18 +422,22 @@ int run_compare(const std::vector<std::string>& args) {
             if (c == v.strategy) variants.push_back(v);
         }
     }
+    if (check && std::none_of(variants.begin(), variants.end(), [](const Variant& v) { return v.strategy == CouplingStrategy::Auto; }))
+        throw UsageError("--check-auto needs the auto variant (--strategies without auto leaves it out)");
+    bool auto_ok = true;
     bool all_finite = true;
     std::string body;
     for (const std::string& path : scenes) {
         std::string png = chart;
         if (!chart_dir.empty()) png = chart_dir + "/compare-" + std::filesystem::path(path).stem().string() + ".png";
         body += compare_scene(path, variants, steps, reference_given ? &reference : nullptr, reference_divide, png,
-                              markdown, record_dir, table, all_finite);
+                              markdown, record_dir, table, reference_check, check, all_finite, auto_ok);
     }
     if (!markdown.empty() && !bench::replace_section(markdown, "compare", body, "sinew compare --all")) {
         std::cerr << "sinew compare: could not write " << markdown << "\n";
         return kExitFailure;
     }
+    if (!auto_ok) return kExitFailure;
     return all_finite ? kExitOk : kExitNonFinite;
 }
 
@@ -354,7 +450,8 @@ extern const Command compare_command = {
     "                     [--record-dir DIR]\n"
     "       sinew compare --all [--scene-dir DIR] [...]\n\n"
     "Runs each scene under every coupling and embedding variant (one-way, one-way with 4 soft sub-steps,\n"
-    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid and embed-fem at h and h/2)\n"
+    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid and embed-fem at h and h/2,\n"
+    "auto)\n"
     "and measures each against a reference: STRATEGY (default: the scene's coupling.compare_reference,\n"
     "else two-way) with the step divided by N (8),\n"
     "itself checked against the same at 2N. Prints one JSON line per run: median ms per scene step,\n"
@@ -367,6 +464,11 @@ extern const Command compare_command = {
     "  --chart FILE.png       error against time, Pareto front marked (gnuplot); --chart-dir DIR for --all\n"
     "  --markdown FILE.md     rewrite the compare section of FILE (docs/RESULTS.md)\n"
     "  --table                print each scene's table (markdown) instead of the JSON lines\n"
+    "  --recommend            print what the \"auto\" strategy picks for each soft body, and why (runs nothing)\n"
+    "  --tolerance T          auto's position tolerance in m (default: the scene's coupling.tolerance, else 0.01)\n"
+    "  --check-auto           exit 1 unless auto's position RMS is within the tolerance and it picked nothing\n"
+    "                         costlier than the reference's strategy\n"
+    "  --no-reference-check   skip the run at half the reference's step\n"
     "  --record-dir DIR       write each run's playback file, contacts included, to DIR/SCENE-VARIANT.jsonl\n"
     "                         (the reference's too),\n"
     "                         to watch side by side: scripts/dev view DIR/SCENE-*.jsonl\n"

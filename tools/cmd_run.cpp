@@ -169,6 +169,15 @@ int run(const std::vector<std::string>& args) {
     if (opt.workers > 1) out["workers"] = opt.workers;
     out["coupling"] = coupling_strategy_name(world->coupling().settings().strategy);
     if (!world->coupling().settings().pairs.empty()) out["coupling_pairs"] = world->coupling().settings().pairs.size();
+    if (world->coupling().settings().strategy == CouplingStrategy::Auto) {
+        // What "auto" picked for each soft body of the scene.
+        nlohmann::ordered_json picks = nlohmann::ordered_json::object();
+        const std::vector<SoftBodyId> soft_ids = soft.bodies();
+        for (const StrategyPick& p : world->coupling().picks())
+            for (std::size_t i = 0; i < soft_ids.size() && i < scene.soft_bodies.size(); ++i)
+                if (soft_ids[i] == p.soft) picks[scene.soft_bodies[i].name] = coupling_strategy_name(p.strategy);
+        out["coupling_picks"] = std::move(picks);
+    }
     if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;
     out["ms_per_step_median"] = round_sig(bench::median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))

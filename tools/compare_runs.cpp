@@ -23,6 +23,7 @@ std::string Variant::label() const {
 
 Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path) {
     SceneDesc d = scene;
+    if (v.tolerance > 0) d.coupling.settings.tolerance = v.tolerance;
     d.coupling.settings.strategy = v.strategy;
     d.coupling.settings.gain = v.gain;
     d.coupling.settings.substeps = v.substeps;
@@ -68,8 +69,8 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const
             r.max_penetration = std::max(r.max_penetration, double(w->rigid().max_penetration()));
             for (const ParticleContact& c : w->soft().contacts()) r.max_penetration = std::max(r.max_penetration, double(c.depth));
             for (const CouplingImpulse& c : w->coupling().impulses()) r.exchanged += c.impulse;
-            // Embedded, soft bodies push through their proxies' contacts.
-            if (v.strategy == CouplingStrategy::EmbedRigid)
+            // Embedded (embed-rigid, or auto's pick), soft bodies push through their proxies' contacts.
+            if (w->coupling().embedding().count() > 0)
                 w->coupling().embedding().for_each_proxy_contact([&](const RigidEmbedding::ProxyContact& c) {
                     if (w->rigid().slot_type(c.body) == BodyType::Dynamic) r.exchanged += c.normal * c.impulse;
                 });
@@ -79,6 +80,7 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const
         if (recorder) recorder->write_frame(*w, std::uint64_t(s + 1));
     }
     if (recorder) recorder->finish();
+    r.picks = w->coupling().picks();
     r.ms_per_step_median = bench::median(ms);
     return r;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "coupling/coupling_settings.hpp"
+#include "coupling/strategy_picker.hpp"
 #include "engine/world/scene.hpp"
 
 namespace sinew::tool::compare {
@@ -17,6 +18,7 @@ struct Variant {
     int substeps = 1;
     Real gain = 1;
     int divide = 1;
+    Real tolerance = 0;  ///< auto: the tolerance (m); 0: the scene's
     std::string label() const;
 };
 
@@ -29,6 +31,7 @@ struct Recording {
     double max_penetration = 0;            ///< deepest rigid-rigid or soft-rigid penetration (m)
     Vec3 exchanged = Vec3::Zero();         ///< total impulse soft bodies gave dynamic rigid bodies (N s)
     bool finite = true;
+    std::vector<StrategyPick> picks;       ///< auto: what it picked (as the run ended)
 };
 
 /// Runs `scene` for `steps` scene steps under `v`. With `record_path`, also writes a playback file of every

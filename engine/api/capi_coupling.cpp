@@ -20,6 +20,7 @@ bool strategy_of(int c, CouplingStrategy& out) {
         case SINEW_COUPLING_ONE_SOLVER: out = CouplingStrategy::OneSolver; return true;
         case SINEW_COUPLING_EMBED_RIGID: out = CouplingStrategy::EmbedRigid; return true;
         case SINEW_COUPLING_EMBED_FEM: out = CouplingStrategy::EmbedFem; return true;
+        case SINEW_COUPLING_AUTO: out = CouplingStrategy::Auto; return true;
         default: return false;
     }
 }
@@ -48,6 +49,43 @@ sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* stra
         World* w = find_world(world, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
         *strategy = static_cast<sinew_coupling>(int(w->coupling().settings().strategy));
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float meters) {
+    const char* fn = "sinew_world_set_coupling_tolerance";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        CouplingSettings c = w->coupling().settings();
+        c.tolerance = Real(meters);
+        w->set_coupling(c);  // CouplingError names a tolerance out of range; nothing changes then
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
+                                           sinew_coupling* strategy) {
+    const char* fn = "sinew_world_get_pair_coupling";
+    return guarded(fn, [&] {
+        if (!strategy) return null_arg(fn, "strategy");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        const SoftBodyId id{soft.index, soft.generation};
+        if (soft.world != pack_world(world) || !w->soft().valid(id))
+            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
+                                                  ", generation " + std::to_string(soft.generation) +
+                                                  "} is null, destroyed or not in this world");
+        BodyId rid;
+        if (rigid.generation != 0) {
+            World* owner = nullptr;
+            rid = find_body(rigid, fn, &owner);
+            if (rid.is_null()) return SINEW_ERROR_STALE_ID;
+            if (owner != w) return invalid(fn, "the rigid body is not in this world");
+        }
+        *strategy = static_cast<sinew_coupling>(int(w->coupling().strategy(id, rid)));
         return SINEW_OK;
     });
 }
@@ -97,6 +135,7 @@ sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id
             return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
                                                   ", generation " + std::to_string(soft.generation) +
                                                   "} is null, destroyed or not in this world");
+        w->coupling().need_proxy(id);        // under auto: a joint is to hold it, so it is embedded
         w->coupling().refresh_embedding();  // a body created since the last step has its proxy now
         const BodyId proxy = w->coupling().embedding().proxy(id);
         if (proxy.is_null())

@@ -708,18 +708,27 @@ typedef enum sinew_coupling {
     SINEW_COUPLING_ONE_SOLVER = 4,  /* two-way in one solver: the soft body's springs solved in the rigid solver's loop */
     SINEW_COUPLING_EMBED_RIGID = 5, /* embedding: the soft body is one rigid proxy in the rigid solver (per soft body:
                                        name no rigid body in sinew_world_set_pair_coupling) */
-    SINEW_COUPLING_EMBED_FEM = 6    /* embedding the other way: a dynamic rigid body (box, sphere, capsule, convex hull)
+    SINEW_COUPLING_EMBED_FEM = 6,   /* embedding the other way: a dynamic rigid body (box, sphere, capsule, convex hull)
                                        is a stiff FEM proxy in the soft system, meeting the soft bodies paired with it */
+    SINEW_COUPLING_AUTO = 7         /* the world's only: each soft body gets the cheapest strategy expected to stay
+                                       within the tolerance (sinew_world_set_coupling_tolerance; docs/compare.md) */
 } sinew_coupling;
 /** The world's coupling strategy from the next step, for every pair no override names; `gain` in [0, 1]
  *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */
 SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain);
 SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
+/** SINEW_COUPLING_AUTO's position tolerance in metres, in (0, 1000] (default 0.01); picks again at once. */
+SINEW_API sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float meters);
+/** The strategy acting now between a soft body and a rigid body (`rigid` null: its strategy against every
+ *  rigid body no override names): under SINEW_COUPLING_AUTO, the pick. */
+SINEW_API sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
+                                                     sinew_coupling* strategy);
 /** The rigid proxy of an embedded soft body (SINEW_COUPLING_EMBED_RIGID), a rigid body that joints accept
  *  as either body (its frame: the world's turned to no angle and moved to the nodes' centre of mass as they
  *  were when the proxy was made). Pinning or attaching a first node, or freeing the last, makes the proxy
  *  anew (a kinematic one while any node is held): its old handle and joints are gone then;
- *  SINEW_ERROR_INVALID_ARGUMENT if the soft body is not embedded. */
+ *  SINEW_ERROR_INVALID_ARGUMENT if the soft body is not embedded. Under SINEW_COUPLING_AUTO,
+ *  asking for the proxy embeds the body (a joint is to hold it). */
 SINEW_API sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:
  *  every rigid body), from the next step; a later call for the same pair replaces it. */

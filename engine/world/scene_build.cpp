@@ -80,12 +80,13 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         const auto end = [&](bool soft, std::size_t index, Vec3& anchor, Vec3* axis) {
             if (!soft) return out.at(index);
             const SceneSoftBody& sb = scene.soft_bodies.at(index);
+            world->coupling().need_proxy(soft_ids.at(index));  // under "auto" the joint makes it embedded
             const BodyId proxy = world->coupling().embedding().proxy(soft_ids.at(index));
             if (proxy.is_null())
                 throw SceneError(scene.file, joint.json_path,
                                  std::string(joint_type_name(def.type)) + " joint: soft body \"" + sb.name +
                                      "\" is not embedded, so it has no rigid proxy to hold (give it the coupling "
-                                     "strategy \"embed-rigid\")");
+                                     "strategy \"embed-rigid\" or \"auto\")");
             const Transform xf = world->rigid().transform(proxy);
             anchor = xf.apply_inverse(anchor);
             if (axis) *axis = xf.q.conjugate() * *axis;

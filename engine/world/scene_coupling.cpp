@@ -16,13 +16,19 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     // Files written before the section existed may hold the reserved empty array: the default, one-way.
     if (node.json().is_array() && node.json().empty()) return;
     node.expect_object();
-    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "pairs", "compare_reference"});
+    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "tolerance", "pairs", "compare_reference"});
     desc.coupling.compare_reference = read_strategy(node, "compare_reference", desc.coupling.compare_reference);
+    if (desc.coupling.compare_reference == CouplingStrategy::Auto)
+        node.get("compare_reference").fail("the reference must be a strategy that runs as it is, not \"auto\"");
     CouplingSettings& s = desc.coupling.settings;
     s.strategy = read_strategy(node, "strategy", s.strategy);
     s.exchange_iterations = read_int(node, "exchange_iterations", s.exchange_iterations, 1, 100);
     s.gain = read_real(node, "gain", s.gain, Range::UnitInterval);
     s.substeps = read_int(node, "substeps", s.substeps, 1, 64);
+    if (std::optional<Node> t = node.find("tolerance")) {
+        s.tolerance = checked(*t, Range::Positive);
+        if (s.tolerance > 1000) t->fail("tolerance must be in (0, 1000] m, got " + t->json().dump());
+    }
     if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay && s.strategy != CouplingStrategy::Hybrid)
         node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way or hybrid strategy, got \"" +
                                   coupling_strategy_name(s.strategy) + "\"");
@@ -49,6 +55,8 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
         }
         out.strategy = read_strategy(p, "strategy", CouplingStrategy::Count);
         if (out.strategy == CouplingStrategy::Count) p.get("strategy");  // required: fails naming it
+        if (out.strategy == CouplingStrategy::Auto)
+            p.get("strategy").fail("\"auto\" is a world strategy (it picks per soft body); a pair names the strategy it wants");
         desc.coupling.pairs.push_back(out);
     }
 }

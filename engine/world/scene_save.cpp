@@ -428,11 +428,13 @@ std::string scene_text(const World& world, const std::string& name, const std::s
         pairs.push_back(std::move(j));
     }
     if (c.strategy != defaults.strategy || c.exchange_iterations != defaults.exchange_iterations ||
-        c.gain != defaults.gain || c.substeps != defaults.substeps || !pairs.empty()) {
+        c.gain != defaults.gain || c.substeps != defaults.substeps || c.tolerance != defaults.tolerance ||
+        !pairs.empty()) {
         Json j = {{"strategy", coupling_strategy_name(c.strategy)},
                   {"exchange_iterations", c.exchange_iterations},
                   {"gain", c.gain},
                   {"substeps", c.substeps}};
+        if (c.strategy == CouplingStrategy::Auto || c.tolerance != defaults.tolerance) j["tolerance"] = c.tolerance;
         if (!pairs.empty()) j["pairs"] = std::move(pairs);
         doc["coupling"] = std::move(j);
     }
