@@ -181,7 +181,8 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
         }
         if (!worst_body) {
             pick.strategy = CouplingStrategy::OneWay;
-            pick.reason = "no dynamic rigid body it can touch: every strategy moves it alike, one-way with the least work";
+            pick.reason = "no dynamic rigid body it can touch: nothing it could push moves, so coupling back is moot and "
+                          "one-way does the least work (cloth-on-arm: 131 mm RMS off, two-way at the same step 990 mm)";
         } else {
             pick.one_way_error = worst;
             const std::string why =
@@ -199,7 +200,8 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
             } else {
                 pick.strategy = CouplingStrategy::TwoWay;
                 pick.reason = why + ", over the tolerance of " + mm(tolerance) +
-                              ": two-way, as cheap as one-way within 1.4 x on the comparison scenes";
+                              ": two-way, the closest variant at the scene's step on the comparison scenes with a "
+                              "dynamic rigid body, at 0.8-1.6 x one-way's time";
             }
         }
         out.push_back(std::move(pick));
