@@ -523,13 +523,14 @@ TEST_CASE("compare runs a scene under each strategy against a converged referenc
     REQUIRE(r.exited);
     CHECK(r.status == 0);
     const std::vector<std::string> lines = lines_of(r.out);
-    REQUIRE(lines.size() == 5);
+    REQUIRE(lines.size() == 8);
     const nlohmann::json check = nlohmann::json::parse(lines[0]);
     CHECK(check["variant"] == "reference-check");
     CHECK(check["reference"] == "two-way h/8");
-    const char* variants[] = {"one-way", "one-way x4 soft", "two-way", "two-way h/2"};
-    double err[4];
-    for (int k = 0; k < 4; ++k) {
+    const char* variants[] = {"one-way",           "one-way x4 soft", "two-way",     "two-way exchange 1",
+                              "two-way exchange 4", "two-way h/2",     "two-way h/4"};
+    double err[7];
+    for (int k = 0; k < 7; ++k) {
         const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k) + 1]);
         CHECK(j["variant"] == variants[k]);
         CHECK(j["finite"] == true);
@@ -537,6 +538,8 @@ TEST_CASE("compare runs a scene under each strategy against a converged referenc
         err[k] = j["position_rms"].get<double>();
     }
     CHECK(err[2] < 0.1 * err[0]);
+    CHECK(err[6] < err[5]);  // h/4 closer than h/2
+    CHECK(err[5] < err[2]);  // h/2 closer than h
     CHECK(check["position_rms"].get<double>() < 0.1 * err[2]);
 
     // A scene whose joints hold a soft body runs embedded only: the others say why they do not apply.
@@ -545,11 +548,23 @@ TEST_CASE("compare runs a scene under each strategy against a converged referenc
     REQUIRE(door.exited);
     CHECK(door.status == 0);
     const std::vector<std::string> dl = lines_of(door.out);
-    REQUIRE(dl.size() == 5);
+    REQUIRE(dl.size() == 8);
     CHECK(nlohmann::json::parse(dl[0])["reference"] == "embed-rigid h/8");  // the scene's compare_reference
     CHECK(nlohmann::json::parse(dl[1])["applies"] == false);
     CHECK_THAT(nlohmann::json::parse(dl[1])["why"].get<std::string>(), Contains("not embedded"));
-    CHECK(nlohmann::json::parse(dl[3])["finite"] == true);
+    CHECK(nlohmann::json::parse(dl[6])["variant"] == "embed-rigid");
+    CHECK(nlohmann::json::parse(dl[6])["finite"] == true);
+
+    // What auto would pick for the door, and why, without running it.
+    const Result rec = sinew_cmd("compare " + quote(dir + "/soft-door.json") + " --recommend");
+    INFO("stdout: " << rec.out << "\nstderr: " << rec.err);
+    REQUIRE(rec.exited);
+    CHECK(rec.status == 0);
+    CHECK_THAT(rec.out, Contains("door embed-rigid: a joint holds it"));
+    const Result bad_tolerance = sinew_cmd("compare " + quote(dir + "/soft-door.json") + " --recommend --tolerance -1");
+    REQUIRE(bad_tolerance.exited);
+    CHECK(bad_tolerance.status == 2);
+    CHECK_THAT(bad_tolerance.err, Contains("--tolerance"));
 
     const Result bad = sinew_cmd("compare " + quote(dir + "/box-on-soft-block.json") + " --strategies sideways");
     REQUIRE(bad.exited);

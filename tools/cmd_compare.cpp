@@ -39,7 +39,8 @@ const char* const kComparisonScenes[] = {"ball-on-trampoline", "box-on-soft-bloc
                                          "basketball-net",     "stack-of-soft-cubes", "soft-door"};
 
 /// Every variant that applies to a scene: each strategy at the scene's step, the sub-stepping ones with
-/// four soft steps per step, hybrid at two gains, and the two-way family and embedding at h/2 too.
+/// four soft steps per step, hybrid at two gains, two-way at 1 and 4 exchange iterations and at h/4, and
+/// the two-way family and embedding at h/2 too.
 std::vector<Variant> default_variants() {
     using S = CouplingStrategy;
     std::vector<Variant> v;
@@ -50,7 +51,10 @@ std::vector<Variant> default_variants() {
     v.push_back({S::Hybrid, 4, 1, 1});
     v.push_back({S::Interleaved, 1, 1, 1});
     v.push_back({S::TwoWay, 1, 1, 1});
+    v.push_back({S::TwoWay, 1, 1, 1, 1});  // the rigid solve's pass of the particle rows only (the scenes': 2)
+    v.push_back({S::TwoWay, 1, 1, 1, 4});
     v.push_back({S::TwoWay, 1, 1, 2});
+    v.push_back({S::TwoWay, 1, 1, 4});
     v.push_back({S::OneSolver, 1, 1, 1});
     v.push_back({S::OneSolver, 1, 1, 2});
     v.push_back({S::EmbedRigid, 1, 1, 1});
@@ -85,6 +89,7 @@ nlohmann::json row_json(const std::string& scene, const Row& r) {
     j["substeps"] = r.variant.substeps;
     j["gain"] = round6(double(r.variant.gain));
     j["divide"] = r.variant.divide;
+    if (r.variant.exchange > 0) j["exchange_iterations"] = r.variant.exchange;
     j["applies"] = true;
     j["ms_per_step_median"] = round6(r.rec.ms_per_step_median);
     // A run that diverged has no error to speak of (the figures would cover its finite start only).
@@ -462,8 +467,8 @@ extern const Command compare_command = {
     "                     [--record-dir DIR]\n"
     "       sinew compare --all [--scene-dir DIR] [...]\n\n"
     "Runs each scene under every coupling and embedding variant (one-way, one-way with 4 soft sub-steps,\n"
-    "hybrid at gains 0.5 and 1, interleaved, two-way and one-solver at h and h/2, embed-rigid and embed-fem at h and h/2,\n"
-    "auto)\n"
+    "hybrid at gains 0.5 and 1, interleaved, two-way at h (1, 2 and 4 exchange iterations), h/2 and h/4,\n"
+    "one-solver, embed-rigid and embed-fem at h and h/2, auto)\n"
     "and measures each against a reference: STRATEGY (default: the scene's coupling.compare_reference,\n"
     "else two-way) with the step divided by N (8),\n"
     "itself checked against the same at 2N. Prints one JSON line per run: median ms per scene step,\n"

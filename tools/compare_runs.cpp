@@ -17,6 +17,7 @@ std::string Variant::label() const {
     s << coupling_strategy_name(strategy);
     if (strategy == CouplingStrategy::Hybrid) s << " gain " << gain;
     if (substeps > 1) s << " x" << substeps << " soft";
+    if (exchange > 0) s << " exchange " << exchange;
     if (divide > 1) s << " h/" << divide;
     return s.str();
 }
@@ -24,6 +25,7 @@ std::string Variant::label() const {
 Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path) {
     SceneDesc d = scene;
     if (v.tolerance > 0) d.coupling.settings.tolerance = v.tolerance;
+    if (v.exchange > 0) d.coupling.settings.exchange_iterations = v.exchange;
     d.coupling.settings.strategy = v.strategy;
     d.coupling.settings.gain = v.gain;
     d.coupling.settings.substeps = v.substeps;

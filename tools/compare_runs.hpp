@@ -11,13 +11,15 @@
 
 namespace sinew::tool::compare {
 
-/// How a scene is run: its strategy, the soft sub-steps per step (one-way and hybrid), hybrid's gain and
-/// the step divided by `divide` (the recorded samples stay one per scene step).
+/// How a scene is run: its strategy, the soft sub-steps per step (one-way and hybrid), hybrid's gain,
+/// two-way's exchange iterations and the step divided by `divide` (the recorded samples stay one per
+/// scene step).
 struct Variant {
     CouplingStrategy strategy = CouplingStrategy::TwoWay;
     int substeps = 1;
     Real gain = 1;
     int divide = 1;
+    int exchange = 0;    ///< two-way: exchange iterations (0: the scene's)
     Real tolerance = 0;  ///< auto: the tolerance (m); 0: the scene's
     std::string label() const;
 };
