@@ -55,6 +55,7 @@ void CouplingLayer::set_settings(const CouplingSettings& s) {
             throw CouplingError("coupling pair " + std::to_string(k) + ": rigid body " + std::to_string(p.rigid.index) +
                                 " (generation " + std::to_string(p.rigid.generation) + ") does not exist");
     }
+    fem_embedding_.check(s);  // before the picks join the pairs: an error names the pair as set
     if (s.strategy == CouplingStrategy::Auto) {
         apply_auto(s);
     } else {
@@ -78,6 +79,12 @@ CouplingSettings CouplingLayer::resolve(const CouplingSettings& requested, std::
     out.pairs.clear();
     for (const StrategyPick& p : picks) out.pairs.push_back({p.soft, BodyId{}, p.strategy});
     out.pairs.insert(out.pairs.end(), requested.pairs.begin(), requested.pairs.end());  // the user's win
+    for (StrategyPick& p : picks)  // and the picks say so
+        for (const CouplingPair& q : requested.pairs)
+            if (q.soft == p.soft && q.rigid.is_null()) {
+                p.strategy = q.strategy;
+                p.reason = "a pair of the settings names it";
+            }
     return out;
 }
 
@@ -89,8 +96,8 @@ void CouplingLayer::apply(const CouplingSettings& s) {
         kinematics_.set_substeps(s.substeps);
     }
     settings_ = s;
-    picked_bodies_[0] = rigid_.body_count() - embedding_.count();
-    picked_bodies_[1] = soft_.body_count() - fem_embedding_.count();
+    picked_revision_[0] = rigid_.structure_revision();
+    picked_revision_[1] = soft_.structure_revision();
 }
 
 void CouplingLayer::refresh_embedding() {
@@ -99,16 +106,23 @@ void CouplingLayer::refresh_embedding() {
 }
 
 void CouplingLayer::need_proxy(SoftBodyId soft) {
-    if (requested_.strategy != CouplingStrategy::Auto || !soft_.valid(soft)) return;
-    if (std::find(held_.begin(), held_.end(), soft) == held_.end()) held_.push_back(soft);
-    apply_auto(requested_);
+    if (requested_.strategy != CouplingStrategy::Auto || !soft_.valid(soft) ||
+        std::find(held_.begin(), held_.end(), soft) != held_.end()) {
+        refresh_embedding();
+        return;
+    }
+    held_.push_back(soft);
+    try {
+        apply_auto(requested_);
+    } catch (const CouplingError&) {
+        held_.pop_back();  // as it was
+        throw;
+    }
 }
 
 void CouplingLayer::resolve_if_changed() {
     if (requested_.strategy != CouplingStrategy::Auto) return;
-    if (rigid_.body_count() - embedding_.count() == picked_bodies_[0] &&
-        soft_.body_count() - fem_embedding_.count() == picked_bodies_[1])
-        return;
+    if (rigid_.structure_revision() == picked_revision_[0] && soft_.structure_revision() == picked_revision_[1]) return;
     try {
         apply_auto(requested_);
     } catch (const CouplingError&) {

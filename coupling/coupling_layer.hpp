@@ -55,12 +55,15 @@ public:
     void set_settings(const CouplingSettings& s);
     /// The strategy acting between two bodies now.
     CouplingStrategy strategy(SoftBodyId soft, BodyId rigid) const { return coupling_strategy_of(settings_, soft, rigid); }
-    /// Under "auto": the last picks, one per soft body, with their reasons (empty otherwise). Picked again
-    /// when the settings are set, on refresh_embedding() and need_proxy(), and at a step's start when
-    /// bodies were added or removed since (not when a body's mass or type changes: set the settings again).
+    /// Under "auto": the last picks, one per soft body, with their reasons, a pair of the settings naming
+    /// the soft body (and no rigid body) shown as the pick (empty otherwise). Picked again when the
+    /// settings are set, on refresh_embedding() and need_proxy(), and at a step's start when a body was
+    /// created or destroyed or a rigid body's type changed since (not when a mass or speed changes).
     const std::vector<StrategyPick>& picks() const { return picks_; }
     /// A joint is to hold soft body `soft` (through its rigid proxy). Under "auto" the body is embedded from
-    /// now on (rule 1 of coupling/strategy_picker.hpp); under any other strategy nothing changes.
+    /// now on, unless a pair of the settings says otherwise (rule 1 of coupling/strategy_picker.hpp; it
+    /// stays so after the joint is gone); under any strategy the proxies follow the bodies at once
+    /// (refresh_embedding). Throws CouplingError as set_settings, nothing changed then.
     void need_proxy(SoftBodyId soft);
     /// What soft bodies did to rigid bodies in the last step, one record per (particle, rigid body)
     /// contact (two-way rows and reactions sent back; the one-way contacts push nothing back).
@@ -135,7 +138,7 @@ private:
     CouplingSettings settings_;  ///< effective: never "auto"
     std::vector<StrategyPick> picks_;
     std::vector<SoftBodyId> held_;             ///< soft bodies joints hold (need_proxy)
-    std::size_t picked_bodies_[2] = {0, 0};    ///< rigid and soft bodies (proxies left out) at the last pick
+    std::uint64_t picked_revision_[2] = {0, 0};  ///< the rigid and soft systems' structure revisions when applied
     OneWayCoupling kinematics_;
     ParticleRows rows_;
     RigidEmbedding embedding_;

@@ -44,7 +44,7 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         return "coupling gain must be in [0, 1], got " + to_text(s.gain);
     if (s.substeps < 1 || s.substeps > 64)
         return "coupling substeps must be in [1, 64], got " + std::to_string(s.substeps);
-    if (!std::isfinite(s.tolerance) || s.tolerance <= 0 || s.tolerance > 1000)
+    if (!std::isfinite(s.tolerance) || s.tolerance <= 0 || s.tolerance > kMaxCouplingTolerance)
         return "coupling tolerance must be in (0, 1000] m, got " + to_text(s.tolerance);
     if (s.strategy == CouplingStrategy::Auto && s.substeps > 1)
         return "coupling substeps = " + std::to_string(s.substeps) +

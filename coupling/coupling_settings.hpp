@@ -89,6 +89,9 @@ struct CouplingSettings {
     std::vector<CouplingPair> pairs;
 };
 
+/// The largest `tolerance` (m) settings accept.
+constexpr Real kMaxCouplingTolerance = 1000;
+
 /// What is wrong with `s` (names the field and, for a pair, its index), or "" if nothing. Pairs are
 /// checked for well-formed values only; whether their bodies exist is the world's check.
 std::string coupling_settings_problem(const CouplingSettings& s);

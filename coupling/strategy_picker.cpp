@@ -8,6 +8,7 @@
 #include "coupling/fem_embedding.hpp"
 #include "coupling/rigid_embedding.hpp"
 #include "engine/core/format.hpp"
+#include "engine/core/shape_cast.hpp"
 #include "rigid/rigid_system.hpp"
 #include "soft/soft_system.hpp"
 
@@ -29,6 +30,10 @@ struct RigidFacts {
     Aabb box;
     CollisionFilter filter;
     Vec3 v;
+    const Shape* shape;  ///< null: an embedded soft body's proxy-to-be (its box stands for it)
+    Transform xf;
+    std::size_t soft = kNone;  ///< an embedded soft body's index in the picker's list
+    static constexpr std::size_t kNone = ~std::size_t(0);
 };
 
 struct SoftFacts {
@@ -48,6 +53,21 @@ constexpr Real kHorizon = 1;
 
 bool overlap(const Aabb& a, const Aabb& b) {
     return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
+}
+
+/// Does the soft body's box (fattened by its thickness) touch the body's shape, within 1 cm? The shape
+/// itself, not its box: a ground plane's box covers the world.
+bool touches(const SoftFacts& s, const RigidFacts& r) {
+    const Aabb box = s.box.fattened(s.thickness);
+    if (!overlap(box.fattened(Real(0.01)), r.box)) return false;
+    if (!r.shape) return true;
+    ClosestPoints cp;
+    try {
+        return closest_points(make_box((box.hi - box.lo) / 2), Transform{(box.hi + box.lo) / 2, Quat::Identity()},
+                              *r.shape, r.xf, Real(0.01), cp);
+    } catch (const std::exception&) {
+        return true;  // a pair the query does not take: the boxes' overlap decides
+    }
 }
 
 /// The axis gravity acts along (0, 1 or 2) and its sign, if it is within 10 degrees of one; -1 otherwise.
@@ -93,9 +113,10 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
                                           const std::vector<SoftBodyId>& held) {
     std::vector<RigidFacts> dynamic, fixed;
     for (BodyId id : rigid.bodies()) {
+        // Proxies of embedded soft bodies come in below, as the bodies the picks embed.
         if (proxies.is_proxy(id) || !rigid.enabled(id) || rigid.is_sensor(id)) continue;
         RigidFacts f{id, rigid.type(id), rigid.mass(id), rigid.shape(id).bounds(rigid.transform(id)), rigid.filter(id),
-                     rigid.state().v[id.index]};
+                     rigid.state().v[id.index], &rigid.shape(id), rigid.transform(id)};
         (f.type == BodyType::Dynamic ? dynamic : fixed).push_back(f);
     }
     std::vector<SoftFacts> bodies;
@@ -116,11 +137,9 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
         std::vector<std::uint8_t> on_dynamic(b.p.size(), 0);
         for (const Attachment& a : b.attachments) {
             const BodyId t = unpack_body_id(a.target);
-            if (!rigid.valid(t) || a.particle >= b.p.size()) continue;
-            if (rigid.type(t) == BodyType::Dynamic && !proxies.is_proxy(t)) {
-                on_dynamic[a.particle] = 1;
-                f.attached.push_back(a.target);
-            }
+            if (!rigid.valid(t) || a.particle >= b.p.size() || rigid.type(t) != BodyType::Dynamic) continue;
+            on_dynamic[a.particle] = 1;  // a dynamic body, or another soft body's dynamic proxy, holds it
+            if (!proxies.is_proxy(t)) f.attached.push_back(a.target);
         }
         for (std::size_t i = 0; i < b.p.size(); ++i)
             if (b.p.inv_mass[i] == 0 && !on_dynamic[i]) f.anchored = true;
@@ -129,42 +148,53 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
 
     Real down = 0;
     const int axis = gravity_axis(soft.settings().gravity, down);
-    std::vector<StrategyPick> out;
-    out.reserve(bodies.size());
-    for (const SoftFacts& s : bodies) {
-        StrategyPick pick;
+    std::vector<StrategyPick> out(bodies.size());
+    std::vector<std::uint8_t> decided(bodies.size(), 0);
+    // Rules 1 and 2 first: the bodies they embed are rigid bodies for the others (a cloth on an embedded
+    // cube meets its proxy), dynamic unless held.
+    for (std::size_t k = 0; k < bodies.size(); ++k) {
+        const SoftFacts& s = bodies[k];
+        StrategyPick& pick = out[k];
         pick.soft = s.id;
         if (std::find(held.begin(), held.end(), s.id) != held.end()) {
             pick.strategy = CouplingStrategy::EmbedRigid;
             pick.reason = "a joint holds it: only embed-rigid gives a soft body a rigid proxy for joints to hold";
-            out.push_back(std::move(pick));
+            decided[k] = 1;
             continue;
         }
-        const SoftFacts* on = nullptr;
-        if (s.volumetric && axis >= 0)
-            for (const SoftFacts& t : bodies)
-                if (&t != &s && t.volumetric && stacked(s, t, axis)) {
-                    on = &t;
-                    break;
-                }
-        if (on) {
-            pick.strategy = CouplingStrategy::EmbedRigid;
-            pick.reason = "stacked with soft body " + std::to_string(on->id.index) +
-                          " under gravity: the coupling strategies let soft stacks collapse (stack-of-soft-cubes "
-                          ">= 823 mm RMS), embed-rigid holds them (0.22 mm), at the cost of their deformation";
-            out.push_back(std::move(pick));
-            continue;
+        if (!s.volumetric || axis < 0) continue;
+        for (const SoftFacts& t : bodies)
+            if (&t != &s && t.volumetric && stacked(s, t, axis)) {
+                pick.strategy = CouplingStrategy::EmbedRigid;
+                pick.reason = "stacked with soft body " + std::to_string(t.id.index) +
+                              " under gravity: the coupling strategies let soft stacks collapse (stack-of-soft-cubes "
+                              ">= 823 mm RMS), embed-rigid holds them (0.22 mm), at the cost of their deformation";
+                decided[k] = 1;
+                break;
+            }
+    }
+    for (std::size_t k = 0; k < bodies.size(); ++k)
+        if (decided[k]) {
+            const SoftFacts& e = bodies[k];
+            (e.anchored ? fixed : dynamic).push_back({BodyId{}, e.anchored ? BodyType::Kinematic : BodyType::Dynamic, e.mass,
+                                                      e.box, e.filter, e.v, nullptr, Transform{}, e.id.index});
         }
+
+    for (std::size_t k = 0; k < bodies.size(); ++k) {
+        if (decided[k]) continue;
+        const SoftFacts& s = bodies[k];
+        StrategyPick& pick = out[k];
         // Supported: it can push back as hard as whatever holds it up.
         bool supported = s.anchored;
-        const Aabb reach = s.box.fattened(s.thickness);
         for (const RigidFacts& r : fixed)
-            if (!supported && should_collide(s.filter, r.filter) && overlap(reach, r.box)) supported = true;
+            if (!supported && should_collide(s.filter, r.filter) && touches(s, r)) supported = true;
         const Real size = (s.box.hi - s.box.lo).norm();
         Real worst = 0;
         const RigidFacts* worst_body = nullptr;
         for (const RigidFacts& r : dynamic) {
-            const bool holds = std::find(s.attached.begin(), s.attached.end(), pack_body_id(r.id)) != s.attached.end();
+            if (r.soft == k) continue;
+            const bool holds = !r.id.is_null() &&
+                               std::find(s.attached.begin(), s.attached.end(), pack_body_id(r.id)) != s.attached.end();
             if (!holds && !should_collide(s.filter, r.filter)) continue;
             // Supported, it stops the body: one-way lets it through, as far as the soft body is big. Free, the
             // momentum it takes from the body is its share of the relative motion, over the horizon.
@@ -183,28 +213,28 @@ std::vector<StrategyPick> pick_strategies(const RigidSystem& rigid, const SoftSy
             pick.strategy = CouplingStrategy::OneWay;
             pick.reason = "no dynamic rigid body it can touch: nothing it could push moves, so coupling back is moot and "
                           "one-way does the least work (cloth-on-arm: 131 mm RMS off, two-way at the same step 990 mm)";
-        } else {
-            pick.one_way_error = worst;
-            const std::string why =
-                supported ? std::string(s.anchored ? "it is pinned or held by a static or kinematic body"
-                                                   : "it lies on a static body") +
-                                ", so it can stop rigid body " + std::to_string(worst_body->id.index) +
-                                ": one-way's error up to its size, " + mm(worst)
-                          : "its share of the momentum against rigid body " + std::to_string(worst_body->id.index) +
-                                " is " + to_text(s.mass / (s.mass + worst_body->mass)) +
-                                ", times its size and their relative travel over 1 s, and its contacts unlike "
-                                "two-way's (a quarter of its size at least): " + mm(worst);
-            if (worst <= tolerance) {
-                pick.strategy = CouplingStrategy::OneWay;
-                pick.reason = why + ", within the tolerance of " + mm(tolerance);
-            } else {
-                pick.strategy = CouplingStrategy::TwoWay;
-                pick.reason = why + ", over the tolerance of " + mm(tolerance) +
-                              ": two-way, the closest variant at the scene's step on the comparison scenes with a "
-                              "dynamic rigid body, at 0.8-1.6 x one-way's time";
-            }
+            continue;
         }
-        out.push_back(std::move(pick));
+        pick.one_way_error = worst;
+        const std::string other = worst_body->id.is_null() ? "the proxy of soft body " + std::to_string(worst_body->soft)
+                                                           : "rigid body " + std::to_string(worst_body->id.index);
+        const std::string why =
+            supported ? std::string(s.anchored ? "it is pinned or held by a static or kinematic body"
+                                               : "it lies on a static or kinematic body") +
+                            ", so it can stop " + other + ": one-way's error up to its size, " + mm(worst)
+                      : "its share of the momentum against " + other + " is " +
+                            to_text(s.mass / (s.mass + worst_body->mass)) +
+                            ", times its size and their relative travel over 1 s, and its contacts unlike "
+                            "two-way's (a quarter of its size at least): " + mm(worst);
+        if (worst <= tolerance) {
+            pick.strategy = CouplingStrategy::OneWay;
+            pick.reason = why + ", within the tolerance of " + mm(tolerance);
+        } else {
+            pick.strategy = CouplingStrategy::TwoWay;
+            pick.reason = why + ", over the tolerance of " + mm(tolerance) +
+                          ": two-way, the closest variant at the scene's step on the comparison scenes with a "
+                          "dynamic rigid body, at 0.8-1.6 x one-way's time";
+        }
     }
     return out;
 }

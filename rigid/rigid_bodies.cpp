@@ -26,6 +26,7 @@ std::string velocity_problem(const Vec3& v, const Vec3& w) {
 }
 
 BodyId RigidSystem::create_body(const BodyDef& def) {
+    ++structure_revision_;  // a refused definition counts too: a revision is a hint to look again, never wrong
     // Validate everything before touching any array, so a bad definition changes nothing.
     auto bad = [](const std::string& why) { throw RigidError("body definition: " + why); };
     if (!is_finite(def.pose.p)) bad("position must be finite");
@@ -167,6 +168,7 @@ bool RigidSystem::valid(BodyId id) const { return slots_.valid(id.index, id.gene
 
 void RigidSystem::destroy_body(BodyId id) {
     check(id, "destroy_body");
+    ++structure_revision_;
     std::uint32_t s = id.index;
     wake_touching(s);  // bodies that rested on this one must not be left floating asleep
     joints_->destroy_attached(s);

@@ -39,6 +39,7 @@ MassProperties RigidSystem::dynamic_mass_properties(std::uint32_t s, const char*
 
 void RigidSystem::set_type(BodyId id, BodyType type) {
     check(id, "set_type");
+    ++structure_revision_;
     const std::uint32_t s = id.index;
     if (type != BodyType::Static && type != BodyType::Kinematic && type != BodyType::Dynamic)
         throw RigidError("set_type: unknown body type " + std::to_string(int(type)));

@@ -104,6 +104,9 @@ public:
     void destroy_body(BodyId id);
     bool valid(BodyId id) const;
     std::size_t body_count() const { return slots_.count(); }
+    /// Counts bodies created or destroyed and types changed: layers that decide from the set of bodies (the
+    /// "auto" coupling strategy) look again when it moves.
+    std::uint64_t structure_revision() const { return structure_revision_; }
     /// Ids of all live bodies in slot order.
     std::vector<BodyId> bodies() const;
     BodyId id_of_slot(std::uint32_t slot) const { return {slot, slots_.generation(slot)}; }
@@ -423,6 +426,7 @@ private:
     std::vector<std::uint8_t> island_awake_;
     std::vector<std::uint64_t> pair_keys_;
     // The broad phase's pairs are recomputed only when the tree or the joint filter changed since.
+    std::uint64_t structure_revision_ = 0;
     std::uint64_t pairs_tree_revision_ = ~std::uint64_t(0), pairs_filter_revision_ = ~std::uint64_t(0);
     std::vector<std::uint64_t> ignored_pairs_;  ///< sorted slot pair keys (ignore_pair)
     bool ignored_changed_ = false;

@@ -31,6 +31,7 @@ void SoftSystem::set_settings(const SoftSettings& s) {
 // ---- bodies -------------------------------------------------------------------------------------------
 
 SoftBodyId SoftSystem::create_body(SoftBodyDef def) {
+    ++structure_revision_;  // a refused definition counts too: a revision is a hint to look again, never wrong
     validate_soft_body_def(def);
     SoftBody b;
     const std::size_t n = def.positions.size();
@@ -88,6 +89,7 @@ bool SoftSystem::valid(SoftBodyId id) const { return slots_.valid(id.index, id.g
 
 void SoftSystem::destroy_body(SoftBodyId id) {
     check(id, "destroy_body");
+    ++structure_revision_;
     bodies_[id.index] = SoftBody{};
     slots_.release(id.index);
 }

@@ -66,6 +66,8 @@ public:
     void destroy_body(SoftBodyId id);
     bool valid(SoftBodyId id) const;
     std::size_t body_count() const { return slots_.count(); }
+    /// Counts bodies created or destroyed (RigidSystem::structure_revision).
+    std::uint64_t structure_revision() const { return structure_revision_; }
     std::vector<SoftBodyId> bodies() const;
     std::size_t slot_count() const { return bodies_.size(); }
     bool slot_alive(std::uint32_t slot) const { return slots_.alive(slot); }
@@ -155,6 +157,7 @@ private:
     std::function<void(int, Real)> before_substep_;
     std::vector<SoftBody> bodies_;
     Slots slots_;  ///< body slots and generations (engine/core/slots.hpp)
+    std::uint64_t structure_revision_ = 0;
     std::vector<Collider> colliders_;
     std::vector<ParticleContact> contacts_;
     std::vector<StepFault> faults_;

@@ -769,6 +769,15 @@ TEST_CASE("auto coupling: picked again when a rigid body comes, kept in saved sc
     CHECK(w->coupling().strategy(cloth, w->rigid().bodies()[1]) == CouplingStrategy::TwoWay);
     CHECK(w->coupling().settings().strategy == CouplingStrategy::Auto);
     CHECK(w->coupling().effective_settings().strategy != CouplingStrategy::Auto);
+    // The ball swapped for a static floor far below (as many bodies as before): one-way again.
+    w->rigid().destroy_body(w->rigid().bodies()[1]);
+    BodyDef floor;
+    floor.type = BodyType::Static;
+    floor.shape = make_box(Vec3(5, Real(0.1), 5));
+    floor.pose.p = Vec3(0, -10, 0);
+    w->rigid().create_body(floor);
+    w->step();
+    CHECK(w->coupling().picks().at(0).strategy == CouplingStrategy::OneWay);
 
     // Saved and loaded: still auto, with its tolerance.
     const std::string path = "auto-coupling-saved.json";
@@ -795,7 +804,8 @@ TEST_CASE("auto coupling: picked again when a rigid body comes, kept in saved sc
                       Catch::Contains("tolerance"));
 }
 
-// Rule 2: volumetric soft bodies one on another under gravity are embedded; one beside them is not.
+// Rule 2: volumetric soft bodies one on another under gravity are embedded; one beside them is not, and
+// meets their proxies two-way.
 TEST_CASE("auto coupling: stacked FEM cubes are embedded, a cube beside them is not", "[coupling][auto]") {
     const auto cube = [](const char* name, Real x, Real y) {
         return std::string(R"({"name": ")") + name + R"(", "builder": "tet-box", "min_corner": [)" + std::to_string(x) +
@@ -811,7 +821,10 @@ TEST_CASE("auto coupling: stacked FEM cubes are embedded, a cube beside them is 
     REQUIRE(picks.size() == 3);
     CHECK(picks[0].strategy == CouplingStrategy::EmbedRigid);
     CHECK(picks[1].strategy == CouplingStrategy::EmbedRigid);
-    CHECK(picks[2].strategy == CouplingStrategy::OneWay);  // on the ground only: nothing it could push
+    // Beside them: the embedded cubes are dynamic rigid bodies it could meet, and lying on the ground it
+    // could stop them: two-way.
+    CHECK(picks[2].strategy == CouplingStrategy::TwoWay);
+    CHECK_THAT(picks[2].reason, Catch::Contains("proxy of soft body"));
     CHECK(w->coupling().embedding().count() == 2);
     for (int s = 0; s < 120; ++s) w->step();
     // Embedded, the top cube stands on the bottom one (it stays within 2 cm of where it was put).

@@ -196,12 +196,13 @@ bool write_chart(const std::string& scene, const std::vector<Row>& rows, double 
         g << "set terminal pngcairo size 900,600\nset output '" << png << "'\nset grid\nset logscale xy\n"
           << "set datafile missing 'nan'\nset key outside below\nset title '" << scene
           << ": position error against the reference, against time'\nset xlabel 'median ms per step'\n"
-          << "set ylabel 'position RMS error (m)'\n"
-          // Errors below the reference's own (its step halved again) are not resolved.
-          << "set arrow 1 from graph 0, first " << std::max(noise, 1e-6) << " to graph 1, first " << std::max(noise, 1e-6)
-          << " nohead dt 2 lc rgb 'gray'\nset label 1 'reference check' at graph 0.01, first " << std::max(noise, 1e-6) * 1.2
-          << " font ',8' tc rgb 'gray'\n"
-          << "plot '" << dat << "' index 0 using 1:2 with points pt 7 ps 1.3 lc rgb '#1f77b4' title 'variants', "
+          << "set ylabel 'position RMS error (m)'\n";
+        // Errors below the reference's own (its step halved again) are not resolved; no line if not measured.
+        if (noise >= 0)
+            g << "set arrow 1 from graph 0, first " << std::max(noise, 1e-6) << " to graph 1, first "
+              << std::max(noise, 1e-6) << " nohead dt 2 lc rgb 'gray'\nset label 1 'reference check' at graph 0.01, first "
+              << std::max(noise, 1e-6) * 1.2 << " font ',8' tc rgb 'gray'\n";
+        g << "plot '" << dat << "' index 0 using 1:2 with points pt 7 ps 1.3 lc rgb '#1f77b4' title 'variants', "
           << "'' index 0 using 1:2:3 with labels offset 0,0.9 font ',8' notitle, "
           << "'' index 1 using 1:2 with linespoints lw 2 pt 6 ps 2 lc rgb '#d62728' title 'Pareto front'\n";
     }
@@ -342,7 +343,7 @@ std::string compare_scene(const std::string& path, const std::vector<Variant>& v
     if (check) auto_ok = check_auto(name, scene, reference_strategy, rows, table) && auto_ok;
     bool charted = false;
     if (!chart.empty()) {
-        charted = write_chart(name, rows, noise.position_rms, chart);
+        charted = write_chart(name, rows, reference_check ? noise.position_rms : -1, chart);
         if (!charted) std::cerr << "sinew compare: gnuplot failed; no chart\n";
     }
     const std::string link = charted && !markdown.empty() ? bench::relative_to(chart, markdown) : "";
@@ -384,7 +385,7 @@ int run_compare(const std::vector<std::string>& args) {
             const std::string t = option_value(args, i, "--tolerance");
             char* end = nullptr;
             tolerance = std::strtod(t.c_str(), &end);
-            if (t.empty() || *end != 0 || !(tolerance > 0 && tolerance <= 1000))
+            if (t.empty() || *end != 0 || !(Real(tolerance) > 0 && tolerance <= double(kMaxCouplingTolerance)))
                 throw UsageError("--tolerance: a length in (0, 1000] m, got \"" + t + "\"");
         }
         else if (is_option(a, "--strategies")) strategies = split_list(option_value(args, i, "--strategies"));

@@ -135,8 +135,10 @@ sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id
             return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
                                                   ", generation " + std::to_string(soft.generation) +
                                                   "} is null, destroyed or not in this world");
-        w->coupling().need_proxy(id);        // under auto: a joint is to hold it, so it is embedded
-        w->coupling().refresh_embedding();  // a body created since the last step has its proxy now
+        if (sinew_status s = check_not_stepping(w, fn)) return s;  // a proxy may be made or dropped
+        // A body created since the last step has its proxy now; under auto a joint is to hold it, so it
+        // is embedded.
+        w->coupling().need_proxy(id);
         const BodyId proxy = w->coupling().embedding().proxy(id);
         if (proxy.is_null())
             return invalid(fn, "soft body {index " + std::to_string(soft.index) +

@@ -719,8 +719,9 @@ SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coup
 SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
 /** SINEW_COUPLING_AUTO's position tolerance in metres, in (0, 1000] (default 0.01); picks again at once. */
 SINEW_API sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float meters);
-/** The strategy acting now between a soft body and a rigid body (`rigid` null: its strategy against every
- *  rigid body no override names): under SINEW_COUPLING_AUTO, the pick. */
+/** The strategy acting between a soft body and a rigid body (`rigid` null: its strategy against every
+ *  rigid body no override names): under SINEW_COUPLING_AUTO, the last pick (bodies created or destroyed
+ *  since are taken into account at the next step's start). */
 SINEW_API sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
                                                      sinew_coupling* strategy);
 /** The rigid proxy of an embedded soft body (SINEW_COUPLING_EMBED_RIGID), a rigid body that joints accept
@@ -728,7 +729,8 @@ SINEW_API sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew
  *  were when the proxy was made). Pinning or attaching a first node, or freeing the last, makes the proxy
  *  anew (a kinematic one while any node is held): its old handle and joints are gone then;
  *  SINEW_ERROR_INVALID_ARGUMENT if the soft body is not embedded. Under SINEW_COUPLING_AUTO,
- *  asking for the proxy embeds the body (a joint is to hold it). */
+ *  asking for the proxy embeds the body (a joint is to hold it) unless a pair override says otherwise;
+ *  SINEW_ERROR_INVALID_ARGUMENT during a step (a proxy may be made). */
 SINEW_API sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:
  *  every rigid body), from the next step; a later call for the same pair replaces it. */

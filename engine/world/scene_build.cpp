@@ -80,7 +80,11 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
         const auto end = [&](bool soft, std::size_t index, Vec3& anchor, Vec3* axis) {
             if (!soft) return out.at(index);
             const SceneSoftBody& sb = scene.soft_bodies.at(index);
-            world->coupling().need_proxy(soft_ids.at(index));  // under "auto" the joint makes it embedded
+            try {
+                world->coupling().need_proxy(soft_ids.at(index));  // under "auto" the joint makes it embedded
+            } catch (const std::invalid_argument& e) {  // CouplingError: a proxy that cannot be made
+                throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
+            }
             const BodyId proxy = world->coupling().embedding().proxy(soft_ids.at(index));
             if (proxy.is_null())
                 throw SceneError(scene.file, joint.json_path,

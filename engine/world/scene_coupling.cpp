@@ -27,7 +27,7 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     s.substeps = read_int(node, "substeps", s.substeps, 1, 64);
     if (std::optional<Node> t = node.find("tolerance")) {
         s.tolerance = checked(*t, Range::Positive);
-        if (s.tolerance > 1000) t->fail("tolerance must be in (0, 1000] m, got " + t->json().dump());
+        if (s.tolerance > kMaxCouplingTolerance) t->fail("tolerance must be in (0, 1000] m, got " + t->json().dump());
     }
     if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay && s.strategy != CouplingStrategy::Hybrid)
         node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way or hybrid strategy, got \"" +
