@@ -134,9 +134,7 @@ std::string picks_text(const SceneDesc& scene, const std::vector<StrategyPick>& 
     std::string out;
     for (const StrategyPick& p : picks) {
         if (!out.empty()) out += ", ";
-        // Soft bodies are made in the scene's order, so a body's slot is its index in the scene.
-        out += (p.soft.index < scene.soft_bodies.size() ? scene.soft_bodies[p.soft.index].name : "soft " + std::to_string(p.soft.index)) +
-               " " + coupling_strategy_name(p.strategy);
+        out += compare::scene_soft_name(scene, p.soft) + " " + coupling_strategy_name(p.strategy);
     }
     return out;
 }
@@ -153,7 +151,7 @@ std::string markdown_table(const std::string& name, const std::string& reference
       << "reference's; **bold**: on the Pareto front of time against position RMS.\n\n";
     for (const Row& r : rows)
         if (r.variant.strategy == CouplingStrategy::Auto)
-            o << "*auto* (tolerance " << mm(r.variant.tolerance > 0 ? r.variant.tolerance : scene.coupling.settings.tolerance)
+            o << "*auto* (tolerance " << mm(r.variant.tolerance_in(scene))
               << " mm) picked: " << picks_text(scene, r.rec.picks) << ".\n\n";
     o << "| variant | ms/step | position RMS (mm) | rigid max (mm) | soft max (mm) | final max (mm) | exchanged error | "
          "penetration (mm) | finite |\n|---|---|---|---|---|---|---|---|---|\n";
@@ -242,7 +240,7 @@ bool check_auto(const std::string& name, const SceneDesc& scene, CouplingStrateg
     j["suite"] = "compare";
     j["scene"] = name;
     j["variant"] = "auto-check";
-    const Real tolerance = run && run->variant.tolerance > 0 ? run->variant.tolerance : scene.coupling.settings.tolerance;
+    const Real tolerance = run ? run->variant.tolerance_in(scene) : scene.coupling.settings.tolerance;
     j["tolerance"] = round6(double(tolerance));
     bool ok = run && run->rec.finite && run->err.position_rms <= double(tolerance);
     bool cheap = run != nullptr;

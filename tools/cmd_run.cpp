@@ -13,6 +13,7 @@
 #include "soft/soft_stability.hpp"
 #include "tools/bench/bench_rigid.hpp"  // median()
 #include "tools/commands.hpp"
+#include "tools/compare_runs.hpp"  // scene_soft_name
 #include "tools/progress.hpp"
 #include "tools/record.hpp"
 
@@ -172,10 +173,8 @@ int run(const std::vector<std::string>& args) {
     if (world->coupling().settings().strategy == CouplingStrategy::Auto) {
         // What "auto" picked for each soft body of the scene.
         nlohmann::ordered_json picks = nlohmann::ordered_json::object();
-        const std::vector<SoftBodyId> soft_ids = soft.bodies();
         for (const StrategyPick& p : world->coupling().picks())
-            for (std::size_t i = 0; i < soft_ids.size() && i < scene.soft_bodies.size(); ++i)
-                if (soft_ids[i] == p.soft) picks[scene.soft_bodies[i].name] = coupling_strategy_name(p.strategy);
+            picks[compare::scene_soft_name(scene, p.soft)] = coupling_strategy_name(p.strategy);
         out["coupling_picks"] = std::move(picks);
     }
     if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;

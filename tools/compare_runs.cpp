@@ -24,7 +24,7 @@ std::string Variant::label() const {
 
 Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path) {
     SceneDesc d = scene;
-    if (v.tolerance > 0) d.coupling.settings.tolerance = v.tolerance;
+    d.coupling.settings.tolerance = v.tolerance_in(scene);
     if (v.exchange > 0) d.coupling.settings.exchange_iterations = v.exchange;
     d.coupling.settings.strategy = v.strategy;
     d.coupling.settings.gain = v.gain;
@@ -85,6 +85,10 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const
     r.picks = w->coupling().picks();
     r.ms_per_step_median = bench::median(ms);
     return r;
+}
+
+std::string scene_soft_name(const SceneDesc& scene, SoftBodyId id) {
+    return id.index < scene.soft_bodies.size() ? scene.soft_bodies[id.index].name : "soft " + std::to_string(id.index);
 }
 
 Errors errors_against(const Recording& run, const Recording& ref) {

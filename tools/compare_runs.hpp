@@ -22,6 +22,7 @@ struct Variant {
     int exchange = 0;    ///< two-way: exchange iterations (0: the scene's)
     Real tolerance = 0;  ///< auto: the tolerance (m); 0: the scene's
     std::string label() const;
+    Real tolerance_in(const SceneDesc& scene) const { return tolerance > 0 ? tolerance : scene.coupling.settings.tolerance; }
 };
 
 /// The state at every scene step: dynamic rigid bodies' centres (the scene's bodies, not proxies) and
@@ -39,6 +40,10 @@ struct Recording {
 /// Runs `scene` for `steps` scene steps under `v`. With `record_path`, also writes a playback file of every
 /// scene step (tools/record.hpp; the viewer plays several side by side).
 Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const std::string& record_path = "");
+
+/// The scene's name of a soft body of a world built from it (build_world makes them in the scene's order,
+/// so a body's slot is its index there), or "soft N".
+std::string scene_soft_name(const SceneDesc& scene, SoftBodyId id);
 
 /// A recording's errors against a reference recording of the same scene and steps.
 struct Errors {

@@ -25,6 +25,27 @@ bool strategy_of(int c, CouplingStrategy& out) {
     }
 }
 
+// The soft body `soft` names in world `w` (SINEW_ERROR_STALE_ID if none).
+sinew_status soft_of(World* w, sinew_world_id world, sinew_soft_body_id soft, const char* fn, SoftBodyId& out) {
+    out = SoftBodyId{soft.index, soft.generation};
+    if (soft.world != pack_world(world) || !w->soft().valid(out))
+        return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
+                                              ", generation " + std::to_string(soft.generation) +
+                                              "} is null, destroyed or not in this world");
+    return SINEW_OK;
+}
+
+// The rigid body `rigid` names in world `w`, or a null id for the null handle ("every rigid body").
+sinew_status rigid_of(World* w, sinew_body_id rigid, const char* fn, BodyId& out) {
+    out = BodyId{};
+    if (rigid.generation == 0) return SINEW_OK;
+    World* owner = nullptr;
+    out = find_body(rigid, fn, &owner);
+    if (out.is_null()) return SINEW_ERROR_STALE_ID;
+    if (owner != w) return invalid(fn, "the rigid body is not in this world");
+    return SINEW_OK;
+}
+
 }  // namespace
 
 sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain) {
@@ -73,18 +94,10 @@ sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew_soft_body
         if (!strategy) return null_arg(fn, "strategy");
         World* w = find_world(world, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
-        const SoftBodyId id{soft.index, soft.generation};
-        if (soft.world != pack_world(world) || !w->soft().valid(id))
-            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
-                                                  ", generation " + std::to_string(soft.generation) +
-                                                  "} is null, destroyed or not in this world");
+        SoftBodyId id;
+        if (sinew_status st = soft_of(w, world, soft, fn, id)) return st;
         BodyId rid;
-        if (rigid.generation != 0) {
-            World* owner = nullptr;
-            rid = find_body(rigid, fn, &owner);
-            if (rid.is_null()) return SINEW_ERROR_STALE_ID;
-            if (owner != w) return invalid(fn, "the rigid body is not in this world");
-        }
+        if (sinew_status st = rigid_of(w, rigid, fn, rid)) return st;
         *strategy = static_cast<sinew_coupling>(int(w->coupling().strategy(id, rid)));
         return SINEW_OK;
     });
@@ -100,17 +113,8 @@ sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body
         CouplingPair pair;
         if (!strategy_of(enum_value(strategy), pair.strategy))
             return invalid(fn, "strategy = " + std::to_string(enum_value(strategy)) + " is not a sinew_coupling");
-        pair.soft = SoftBodyId{soft.index, soft.generation};
-        if (soft.world != pack_world(world) || !w->soft().valid(pair.soft))
-            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
-                                                  ", generation " + std::to_string(soft.generation) +
-                                                  "} is null, destroyed or not in this world");
-        if (rigid.generation != 0) {
-            World* owner = nullptr;
-            pair.rigid = find_body(rigid, fn, &owner);
-            if (pair.rigid.is_null()) return SINEW_ERROR_STALE_ID;
-            if (owner != w) return invalid(fn, "the rigid body is not in this world");
-        }
+        if (sinew_status st = soft_of(w, world, soft, fn, pair.soft)) return st;
+        if (sinew_status st = rigid_of(w, rigid, fn, pair.rigid)) return st;
         CouplingSettings c = w->coupling().settings();
         // A later call for the same pair replaces the earlier one.
         for (std::size_t k = 0; k < c.pairs.size();)
@@ -130,11 +134,8 @@ sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id
         if (!out) return null_arg(fn, "out");
         World* w = find_world(world, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
-        const SoftBodyId id{soft.index, soft.generation};
-        if (soft.world != pack_world(world) || !w->soft().valid(id))
-            return fail(SINEW_ERROR_STALE_ID, std::string(fn) + ": soft body {index " + std::to_string(soft.index) +
-                                                  ", generation " + std::to_string(soft.generation) +
-                                                  "} is null, destroyed or not in this world");
+        SoftBodyId id;
+        if (sinew_status st = soft_of(w, world, soft, fn, id)) return st;
         if (sinew_status s = check_not_stepping(w, fn)) return s;  // a proxy may be made or dropped
         // A body created since the last step has its proxy now; under auto a joint is to hold it, so it
         // is embedded.
