@@ -181,3 +181,21 @@ TEST_CASE("C API: the auto coupling strategy picks two-way for a pinned cloth un
     CHECK(c == SINEW_COUPLING_EMBED_RIGID);
     sinew_world_destroy(t.world);
 }
+
+TEST_CASE("C API: embed-fem's proxies of rigid bodies are not among the host's soft bodies", "[capi][coupling][embed-fem]") {
+    Trampoline t = make_trampoline();
+    REQUIRE(sinew_world_set_coupling(t.world, SINEW_COUPLING_EMBED_FEM, 1) == SINEW_OK);
+    REQUIRE(sinew_world_step_fixed(t.world) == SINEW_OK);  // the ball's proxy is made in the step
+    int count = -1;
+    REQUIRE(sinew_world_soft_body_count(t.world, &count) == SINEW_OK);
+    CHECK(count == 1);
+    sinew_soft_body_id ids[4];
+    REQUIRE(sinew_world_get_soft_bodies(t.world, ids, 4, &count) == SINEW_OK);
+    REQUIRE(count == 1);
+    CHECK(ids[0].index == t.cloth.index);
+    CHECK(ids[0].generation == t.cloth.generation);
+    sinew_world_counters c;
+    REQUIRE(sinew_world_get_counters(t.world, &c) == SINEW_OK);
+    CHECK(c.soft_body_count == 1);
+    sinew_world_destroy(t.world);
+}

@@ -165,7 +165,7 @@ int run(const std::vector<std::string>& args) {
     out["scene"] = scene.name;
     out["steps"] = done;
     out["bodies"] = rigid.body_count();
-    out["soft_bodies"] = soft.body_count();
+    out["soft_bodies"] = soft.body_count() - world->coupling().fem_embedding().count();  // not embed-fem's proxies
     out["particles"] = soft.particle_count();
     if (opt.workers > 1) out["workers"] = opt.workers;
     out["coupling"] = coupling_strategy_name(world->coupling().settings().strategy);

@@ -516,7 +516,8 @@ sinew_status sinew_world_soft_body_count(sinew_world_id world, int* out) {
         if (!out) return null_arg(fn, "out");
         World* w = find_world(world, fn);
         if (!w) return SINEW_ERROR_STALE_ID;
-        *out = static_cast<int>(w->soft().body_count());
+        // embed-fem's proxies of rigid bodies are the coupling layer's, not the host's soft bodies.
+        *out = static_cast<int>(w->soft().body_count() - w->coupling().fem_embedding().count());
         return SINEW_OK;
     });
 }
@@ -534,6 +535,7 @@ sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_i
         for (std::uint32_t slot = 0; slot < s.slot_count() && n < capacity; ++slot) {
             if (!s.slot_alive(slot)) continue;
             const SoftBodyId id = s.id_of_slot(slot);
+            if (w->coupling().fem_embedding().is_proxy(id)) continue;  // the coupling layer's (embed-fem)
             ids[n++] = {pack_world(world), id.index, id.generation};
         }
         *count = n;

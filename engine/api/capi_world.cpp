@@ -217,7 +217,7 @@ sinew_status sinew_world_get_counters(sinew_world_id id, sinew_world_counters* o
         sinew_world_counters c{};
         c.body_count = int(r.body_count());
         c.awake_body_count = int(r.awake_count());
-        c.soft_body_count = int(w->soft().body_count());
+        c.soft_body_count = int(w->soft().body_count() - w->coupling().fem_embedding().count());  // not embed-fem's proxies
         c.joint_count = int(r.joints().count());
         for (const ContactManifold& m : r.contacts()) {
             if (m.manifold.count == 0) continue;

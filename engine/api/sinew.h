@@ -401,7 +401,8 @@ SINEW_API sinew_status sinew_soft_set_filter(sinew_soft_body_id body, sinew_filt
 SINEW_API sinew_status sinew_soft_get_filter(sinew_soft_body_id body, sinew_filter* out);
 SINEW_API sinew_status sinew_world_soft_body_count(sinew_world_id world, int* out);
 /** Up to capacity soft body handles, in slot order (creation order in a fresh world, scene file order for
- *  a loaded scene); *count receives how many were written. */
+ *  a loaded scene); *count receives how many were written. Neither this nor the counts include the FEM
+ *  proxies SINEW_COUPLING_EMBED_FEM makes of rigid bodies. */
 SINEW_API sinew_status sinew_world_get_soft_bodies(sinew_world_id world, sinew_soft_body_id* ids, int capacity,
                                                    int* count);
 
