@@ -76,6 +76,7 @@ CouplingSettings CouplingLayer::resolve(const CouplingSettings& requested, std::
     picks = pick_strategies(rigid_, soft_, embedding_, fem_embedding_, requested.tolerance, held_);
     CouplingSettings out = requested;
     out.strategy = CouplingStrategy::OneWay;  // a body created since the pick, until the next one
+    out.embed_proxies = EmbedProxies::Body;   // the granularity the rules were measured with
     out.pairs.clear();
     for (const StrategyPick& p : picks) out.pairs.push_back({p.soft, BodyId{}, p.strategy});
     out.pairs.insert(out.pairs.end(), requested.pairs.begin(), requested.pairs.end());  // the user's win

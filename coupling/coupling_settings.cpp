@@ -9,7 +9,32 @@ namespace sinew {
 namespace {
 const char* const kNames[] = {"one-way", "two-way", "hybrid", "interleaved", "one-solver", "embed-rigid", "embed-fem", "auto"};
 static_assert(sizeof(kNames) / sizeof(kNames[0]) == std::size_t(CouplingStrategy::Count), "one name per strategy");
+const char* const kProxyNames[] = {"body", "elements"};
+const char* const kProxyMassNames[] = {"physical", "whole-body"};
+static_assert(sizeof(kProxyNames) / sizeof(kProxyNames[0]) == std::size_t(EmbedProxies::Count), "one name each");
+static_assert(sizeof(kProxyMassNames) / sizeof(kProxyMassNames[0]) == std::size_t(EmbedProxyMass::Count), "one name each");
+
+template <class E, std::size_t N>
+bool parse_name(const std::string& text, const char* const (&names)[N], E& out) {
+    for (std::size_t i = 0; i < N; ++i)
+        if (text == names[i]) {
+            out = E(i);
+            return true;
+        }
+    return false;
+}
 }  // namespace
+
+const char* embed_proxies_name(EmbedProxies p) {
+    return std::size_t(p) < std::size_t(EmbedProxies::Count) ? kProxyNames[std::size_t(p)] : "unknown";
+}
+bool parse_embed_proxies(const std::string& text, EmbedProxies& out) { return parse_name(text, kProxyNames, out); }
+const char* embed_proxy_mass_name(EmbedProxyMass m) {
+    return std::size_t(m) < std::size_t(EmbedProxyMass::Count) ? kProxyMassNames[std::size_t(m)] : "unknown";
+}
+bool parse_embed_proxy_mass(const std::string& text, EmbedProxyMass& out) {
+    return parse_name(text, kProxyMassNames, out);
+}
 
 const char* coupling_strategy_name(CouplingStrategy s) {
     const auto i = std::size_t(s);
@@ -46,6 +71,11 @@ std::string coupling_settings_problem(const CouplingSettings& s) {
         return "coupling substeps must be in [1, 64], got " + std::to_string(s.substeps);
     if (!std::isfinite(s.tolerance) || s.tolerance <= 0 || s.tolerance > kMaxCouplingTolerance)
         return "coupling tolerance must be in (0, 1000] m, got " + to_text(s.tolerance);
+    if (std::size_t(s.embed_proxies) >= std::size_t(EmbedProxies::Count))
+        return "coupling proxies " + std::to_string(int(s.embed_proxies)) + " is unknown (known: body, elements)";
+    if (std::size_t(s.embed_proxy_mass) >= std::size_t(EmbedProxyMass::Count))
+        return "coupling proxy_mass " + std::to_string(int(s.embed_proxy_mass)) +
+               " is unknown (known: physical, whole-body)";
     if (s.strategy == CouplingStrategy::Auto && s.substeps > 1)
         return "coupling substeps = " + std::to_string(s.substeps) +
                " cannot go with the strategy \"auto\" (it picks two-way or embedding where the soft body pushes "

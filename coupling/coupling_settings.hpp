@@ -63,6 +63,24 @@ bool parse_coupling_strategy(const std::string& text, CouplingStrategy& out);
 /// "one-way, two-way, hybrid, interleaved, one-solver": for error messages.
 std::string coupling_strategy_list();
 
+/// embed-rigid's proxies of a soft body (seed 001 ch.5 §7): one rigid proxy for the whole body, or one per
+/// element (per tet; per surface triangle without tets; per structural link without either), whose
+/// shared nodes carry each proxy's velocity changes to its neighbours inside the rigid solver's
+/// iterations (coupling/element_proxies.hpp).
+enum class EmbedProxies : std::uint8_t { Body, Elements, Count };
+/// How an element proxy weighs its nodes: by their own masses (an impulse on the proxy changes the nodes'
+/// momentum by exactly that impulse), or each node at the whole body's mass over the element's node count
+/// (seed 001 ch.5 §7: every tet given the whole mesh's mass, for faster convergence of the constraints;
+/// the nodes then take only their share of an impulse, and momentum is not exchanged exactly).
+enum class EmbedProxyMass : std::uint8_t { Physical, WholeBody, Count };
+
+/// "body", "elements".
+const char* embed_proxies_name(EmbedProxies p);
+bool parse_embed_proxies(const std::string& text, EmbedProxies& out);
+/// "physical", "whole-body".
+const char* embed_proxy_mass_name(EmbedProxyMass m);
+bool parse_embed_proxy_mass(const std::string& text, EmbedProxyMass& out);
+
 /// A strategy for one soft body against one rigid body (or against every rigid body: `rigid` null).
 struct CouplingPair {
     SoftBodyId soft;
@@ -85,6 +103,11 @@ struct CouplingSettings {
     /// Auto: the position error (m) the picked strategies should stay within, against a converged run
     /// of the same scene (docs/compare.md), in (0, 1000].
     Real tolerance = Real(0.01);
+    /// embed-rigid: one proxy per soft body, or one per element (for every embedded body of the world;
+    /// "auto" embeds with one per body, the granularity its rules were measured with).
+    EmbedProxies embed_proxies = EmbedProxies::Body;
+    /// embed-rigid with element proxies: how each weighs its nodes.
+    EmbedProxyMass embed_proxy_mass = EmbedProxyMass::Physical;
     /// Later entries win over earlier ones; a pair naming one rigid body wins over one naming none.
     std::vector<CouplingPair> pairs;
 };

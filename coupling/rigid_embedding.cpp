@@ -24,22 +24,37 @@ bool anchored(const SoftBody& b) {
 }  // namespace
 
 RigidEmbedding::RigidEmbedding(Pipeline& pipeline, RigidSystem& rigid, SoftSystem& soft)
-    : pipeline_(pipeline), rigid_(rigid), soft_(soft) {
+    : pipeline_(pipeline), rigid_(rigid), soft_(soft), elements_(rigid, soft, soft_slot_of_rigid_, kNoSoft) {
     const int r = pipeline.find_system(rigid.name());
     const int s = pipeline.find_system(soft.name());
     hooks_[0] = pipeline.add_hook(r, Stage::IntegrateVelocities, HookWhen::Before,
-                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "embedding: proxies measured");
+                                  [this](const StepContext& ctx) {
+                                      begin_step(ctx.h);
+                                      elements_.begin_step();
+                                  }, "embedding: proxies measured");
     hooks_[1] = pipeline.add_hook(s, Stage::IntegrateVelocities, HookWhen::After,
-                                  [this](const StepContext& ctx) { after_soft_predict(ctx.h); },
+                                  [this](const StepContext& ctx) {
+                                      after_soft_predict(ctx.h);
+                                      elements_.after_soft_predict(ctx.h);
+                                  },
                                   "embedding: proxy velocities from the prediction");
     hooks_[2] = pipeline.add_hook(r, Stage::SolveVelocities, HookWhen::After,
-                                  [this](const StepContext& ctx) { after_rigid_solve(ctx.h); },
+                                  [this](const StepContext& ctx) {
+                                      after_rigid_solve(ctx.h);
+                                      elements_.after_rigid_solve(ctx.h);
+                                  },
                                   "embedding: rigid solve -> nodes");
     hooks_[3] = pipeline.add_hook(r, Stage::IntegratePositions, HookWhen::After,
-                                  [this](const StepContext& ctx) { after_rigid_positions(ctx.h); },
+                                  [this](const StepContext& ctx) {
+                                      after_rigid_positions(ctx.h);
+                                      elements_.after_rigid_positions(ctx.h);
+                                  },
                                   "embedding: rigid positions -> nodes");
     hooks_[4] = pipeline.add_hook(s, Stage::IntegratePositions, HookWhen::After,
-                                  [this](const StepContext&) { end_step(); }, "embedding: proxies placed");
+                                  [this](const StepContext&) {
+                                      end_step();
+                                      elements_.end_step();
+                                  }, "embedding: proxies placed");
 }
 
 RigidEmbedding::~RigidEmbedding() {
@@ -49,7 +64,18 @@ RigidEmbedding::~RigidEmbedding() {
 std::size_t RigidEmbedding::count() const {
     std::size_t n = 0;
     for (const Proxy& px : proxies_) n += px.body.is_null() ? 0 : 1;
-    return n;
+    return n + elements_.count();
+}
+
+const std::vector<BodyId>& RigidEmbedding::element_proxies(SoftBodyId id) const {
+    static const std::vector<BodyId> none;
+    if (!soft_.valid(id) || elements_.generation(id.index) != id.generation) return none;
+    return elements_.proxies(id.index);
+}
+
+std::vector<std::uint32_t> RigidEmbedding::element_nodes(SoftBodyId id, std::size_t e) const {
+    if (!soft_.valid(id) || elements_.generation(id.index) != id.generation) return {};
+    return elements_.element_nodes(id.index, e);
 }
 
 BodyId RigidEmbedding::proxy(SoftBodyId id) const {
@@ -62,14 +88,17 @@ std::uint32_t RigidEmbedding::proxy_slot(BodyId rigid) const {
     if (rigid.is_null() || rigid.index >= soft_slot_of_rigid_.size()) return kNoSoft;
     const std::uint32_t s = soft_slot_of_rigid_[rigid.index];
     // The whole id, generation included: a stale entry (the rigid slot reused by another body) differs.
-    return s < proxies_.size() && proxies_[s].body == rigid ? s : kNoSoft;
+    if (s < proxies_.size() && proxies_[s].body == rigid) return s;
+    return elements_.holds(s, rigid) ? s : kNoSoft;
 }
 
 bool RigidEmbedding::is_proxy(BodyId rigid) const { return proxy_slot(rigid) != kNoSoft; }
 
 SoftBodyId RigidEmbedding::soft_of(BodyId rigid) const {
     const std::uint32_t s = proxy_slot(rigid);
-    if (s == kNoSoft || !soft_.slot_alive(s) || soft_.id_of_slot(s).generation != proxies_[s].soft_generation) return {};
+    if (s == kNoSoft || !soft_.slot_alive(s)) return {};
+    const std::uint32_t generation = elements_.embedded(s) ? elements_.generation(s) : proxies_[s].soft_generation;
+    if (soft_.id_of_slot(s).generation != generation) return {};
     return soft_.id_of_slot(s);
 }
 
@@ -79,6 +108,7 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
         if (soft_.slot_body(s).meets_soft_bodies_only) return false;  // a rigid body's FEM proxy (embed-fem)
         return coupling_strategy_of(settings, soft_.id_of_slot(s), BodyId{}) == CouplingStrategy::EmbedRigid;
     };
+    const bool by_elements = settings.embed_proxies == EmbedProxies::Elements;
     // Checked first, so that a body whose proxy cannot be made leaves everything as it was.
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s)
         if (wanted(s) && !all_finite(soft_.slot_body(s).p.x))
@@ -91,7 +121,7 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
         const bool alive = s < soft_.slot_count() && soft_.slot_alive(s);
         const SoftBodyId id = alive ? soft_.id_of_slot(s) : SoftBodyId{};
         const bool same_body = alive && px.soft_generation == id.generation;
-        const bool want = wanted(s);
+        const bool want = wanted(s) && !by_elements;
         const bool have = !px.body.is_null() && rigid_.valid(px.body) && same_body &&
                           px.anchored == anchored(soft_.slot_body(s));
         if (have && want) {
@@ -112,6 +142,20 @@ void RigidEmbedding::update_membership(const CouplingSettings& settings) {
             px.soft_generation = id.generation;
             px.body = create_proxy(s);
         }
+    }
+    std::vector<bool> by_element(proxies_.size(), false);
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) by_element[s] = by_elements && wanted(s);
+    elements_.update_membership(by_element, settings.embed_proxy_mass);
+    // Whichever kind of proxy a body has (or none), its own contact pass meets colliders only without one.
+    // A body with element proxies never sleeps: the soft system's thresholds are set aside for it, as for
+    // a dynamic whole-body proxy, and nothing puts it to sleep (coupling/element_proxies.hpp).
+    for (std::uint32_t s = 0; s < proxies_.size(); ++s) {
+        if (s >= soft_.slot_count() || !soft_.slot_alive(s)) continue;
+        SoftBody& b = soft_.slot_body(s);
+        const bool whole = !proxies_[s].body.is_null();
+        b.meets_colliders_through_proxy = whole || elements_.embedded(s);
+        if (elements_.embedded(s)) b.sleeps_with_proxy = true;
+        else if (!whole) b.sleeps_with_proxy = false;
     }
 }
 
@@ -185,31 +229,13 @@ bool RigidEmbedding::write(std::uint32_t slot, Proxy& px, const std::vector<Vec3
     const RigidProxyState st = measure_rigid_proxy(x, v, b.p.mass, px.rest, b.def.thickness);
     const Quat q(st.rotation);
     if (reshape) {
-        // The hull of the nodes in the proxy's frame (origin at the centre of mass). A flat body (a cloth)
-        // has no volume: its nodes are doubled a thickness to either side.
+        // The hull of the nodes in the proxy's frame (origin at the centre of mass).
         std::vector<Vec3>& local = scratch_x_;
         local.resize(x.size());
         const Mat3 rt = st.rotation.transpose();
         for (std::size_t i = 0; i < x.size(); ++i) local[i] = rt * (x[i] - st.com);
-        Shape hull;
-        try {
-            hull = make_convex_hull(local, kHullFlatness);
-        } catch (const ShapeError&) {
-            // Flat or thin within the flatness: each node becomes a small box of the body's thickness
-            // (at least the flatness, so the hull has volume to find).
-            Aabb box;
-            for (const Vec3& y : local) box.grow(y);
-            const Real pad = std::max(b.def.thickness, kHullFlatness * (box.hi - box.lo).norm());
-            const std::size_t n = local.size();
-            for (std::size_t i = 0; i < n; ++i)
-                for (int a = 0; a < 3; ++a) {
-                    Vec3 d = Vec3::Zero();
-                    d[a] = pad;
-                    local.push_back(local[i] + d);
-                    local.push_back(local[i] - d);
-                }
-            hull = make_convex_hull(local);
-        }
+        // A flat body (a cloth) has no volume: its nodes are doubled a thickness to either side.
+        const Shape hull = make_proxy_hull(local, b.def.thickness, kHullFlatness);
         Mat3 inertia = rt * st.inertia * st.rotation;
         inertia = Real(0.5) * (inertia + inertia.transpose()).eval();  // symmetric to rounding, as reshape checks
         rigid_.reshape(px.body, hull, st.mass, inertia);

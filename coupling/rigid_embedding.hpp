@@ -29,8 +29,9 @@
 // With one proxy per body, applying each velocity change to the nodes inside the solver's iterations
 // (so the next constraint sees them, as seed 001 asks) and applying the sum after the solve are the same:
 // the nodes are read by nothing else during the rigid solve (the soft body meets colliders only through
-// its proxy), and the proxy's velocity is exactly the nodes' rigid part. Per-element proxies, whose shared
-// nodes would couple neighbouring proxies inside the loop, are not built.
+// its proxy), and the proxy's velocity is exactly the nodes' rigid part. With one proxy per element
+// (CouplingSettings::embed_proxies), shared nodes couple neighbouring proxies inside the loop: those are
+// kept by coupling/element_proxies.hpp, a row source of the rigid solver, which this layer drives.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +39,7 @@
 #include <vector>
 
 #include "coupling/coupling_settings.hpp"
+#include "coupling/element_proxies.hpp"
 #include "coupling/rigid_proxy.hpp"
 #include "engine/core/pipeline.hpp"
 #include "rigid/rigid_system.hpp"
@@ -63,8 +65,13 @@ public:
     void set_before_step(std::function<void()> f) { before_step_ = std::move(f); }
     /// Is `rigid` a proxy this layer made (its soft body may be gone since the last update)?
     bool is_proxy(BodyId rigid) const;
-    /// The proxy of soft body `id`, or a null id if it is not embedded.
+    /// The proxy of soft body `id`, or a null id if it is not embedded with one proxy for the body.
     BodyId proxy(SoftBodyId id) const;
+    /// The element proxies of soft body `id` (embedded with CouplingSettings::embed_proxies = Elements),
+    /// one per element in the order ElementProxies found them; empty if it is not embedded that way.
+    const std::vector<BodyId>& element_proxies(SoftBodyId id) const;
+    /// The nodes of element e of soft body `id` (empty if none).
+    std::vector<std::uint32_t> element_nodes(SoftBodyId id, std::size_t e) const;
     /// The soft body whose proxy `rigid` is, or a null id. Constant time (tools call it per manifold).
     SoftBodyId soft_of(BodyId rigid) const;
     /// One contact point of the last rigid step between a proxy and a body that is not a proxy (contacts
@@ -152,6 +159,7 @@ private:
     /// The soft slot whose proxy `rigid` is (its soft body may be gone since), or kNoSoft.
     std::uint32_t proxy_slot(BodyId rigid) const;
     std::vector<Vec3> scratch_v_, scratch_x_;
+    ElementProxies elements_;  ///< after soft_slot_of_rigid_, which it shares
     int hooks_[5] = {0, 0, 0, 0, 0};
 };
 

@@ -4,6 +4,10 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include <algorithm>
+
+#include "engine/core/aabb.hpp"
+
 namespace sinew {
 
 Mat3 polar_rotation(const Mat3& a) {
@@ -23,6 +27,25 @@ Mat3 polar_rotation(const Mat3& a) {
     // the smallest singular value (the last column of U).
     if ((u * vt).determinant() < 0) u.col(2) = -u.col(2);
     return (u * vt).cast<Real>();
+}
+
+Shape make_proxy_hull(std::vector<Vec3>& local, Real thickness, Real flatness) {
+    try {
+        return make_convex_hull(local, flatness);
+    } catch (const ShapeError&) {
+        Aabb box;
+        for (const Vec3& y : local) box.grow(y);
+        const Real pad = std::max(thickness, flatness * (box.hi - box.lo).norm());
+        const std::size_t n = local.size();
+        for (std::size_t i = 0; i < n; ++i)
+            for (int a = 0; a < 3; ++a) {
+                Vec3 d = Vec3::Zero();
+                d[a] = pad;
+                local.push_back(local[i] + d);
+                local.push_back(local[i] - d);
+            }
+        return make_convex_hull(local);
+    }
 }
 
 RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vector<Vec3>& v,

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/core/math.hpp"
+#include "engine/core/shape.hpp"
 
 namespace sinew {
 
@@ -37,6 +38,12 @@ struct RigidProxyState {
 /// below, 2/5 M radius², so even a single node has an invertible inertia.
 RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                                     const std::vector<Real>& mass, const std::vector<Vec3>& rest, Real radius = 0);
+
+/// The convex hull of nodes given in the proxy's frame (`local`, used as scratch: nodes may be added),
+/// points within `flatness` x the diagonal of a plane sharing one face. A set with no volume (a cloth, a
+/// link, one triangle) has each node doubled `thickness` (at least the flatness) to either side along
+/// each axis, so the hull has volume to find.
+Shape make_proxy_hull(std::vector<Vec3>& local, Real thickness, Real flatness);
 
 /// The rotation of the polar decomposition of a 3x3 matrix (a proper rotation: det +1), computed in double.
 /// A rank-deficient matrix (the nodes of a rope or a flat cloth) leaves the rotation about the missing

@@ -14,3 +14,7 @@ sinew_status sinew_test_set_coupling_int(sinew_world_id world, int strategy, flo
 sinew_status sinew_test_set_body_type_int(sinew_body_id body, int type) {
     return sinew_body_set_type(body, (sinew_body_type)type);
 }
+
+sinew_status sinew_test_set_embed_proxies_int(sinew_world_id world, int proxies, int mass) {
+    return sinew_world_set_embed_proxies(world, (sinew_embed_proxies)proxies, (sinew_embed_mass)mass);
+}

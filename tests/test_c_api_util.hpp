@@ -16,6 +16,7 @@
 extern "C" {
 sinew_status sinew_test_set_solver_int(sinew_world_id world, int solver, int velocity_iterations);
 sinew_status sinew_test_set_coupling_int(sinew_world_id world, int strategy, float gain);
+sinew_status sinew_test_set_embed_proxies_int(sinew_world_id world, int proxies, int mass);
 sinew_status sinew_test_set_body_type_int(sinew_body_id body, int type);
 }
 

@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -548,12 +549,22 @@ TEST_CASE("compare runs a scene under each strategy against a converged referenc
     REQUIRE(door.exited);
     CHECK(door.status == 0);
     const std::vector<std::string> dl = lines_of(door.out);
-    REQUIRE(dl.size() == 8);
+    REQUIRE(dl.size() == 10);
     CHECK(nlohmann::json::parse(dl[0])["reference"] == "embed-rigid h/8");  // the scene's compare_reference
-    CHECK(nlohmann::json::parse(dl[1])["applies"] == false);
-    CHECK_THAT(nlohmann::json::parse(dl[1])["why"].get<std::string>(), Contains("not embedded"));
-    CHECK(nlohmann::json::parse(dl[6])["variant"] == "embed-rigid");
-    CHECK(nlohmann::json::parse(dl[6])["finite"] == true);
+    std::map<std::string, nlohmann::json> by_variant;
+    for (std::size_t k = 1; k < dl.size(); ++k) {
+        const nlohmann::json j = nlohmann::json::parse(dl[k]);
+        by_variant[j["variant"].get<std::string>()] = j;
+    }
+    CHECK(by_variant["two-way"]["applies"] == false);
+    CHECK_THAT(by_variant["two-way"]["why"].get<std::string>(), Contains("not embedded"));
+    CHECK(by_variant["embed-rigid"]["finite"] == true);
+    CHECK(by_variant["embed-rigid h/2"]["finite"] == true);
+    // A joint in a scene file holds a whole-body proxy: the element variants say so.
+    for (const char* v : {"embed-rigid elements", "embed-rigid elements whole-body"}) {
+        CHECK(by_variant[v]["applies"] == false);
+        CHECK_THAT(by_variant[v]["why"].get<std::string>(), Contains("one proxy per element"));
+    }
 
     // What auto would pick for the door, and why, without running it.
     const Result rec = sinew_cmd("compare " + quote(dir + "/soft-door.json") + " --recommend");

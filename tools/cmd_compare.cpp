@@ -39,7 +39,8 @@ const char* const kComparisonScenes[] = {"ball-on-trampoline", "box-on-soft-bloc
                                          "basketball-net",     "stack-of-soft-cubes", "soft-door"};
 
 /// Every variant that applies to a scene: each strategy at the scene's step, the sub-stepping ones with
-/// four soft steps per step, hybrid at two gains, two-way at 1 and 4 exchange iterations and at h/4, and
+/// four soft steps per step, hybrid at two gains, two-way at 1 and 4 exchange iterations and at h/4,
+/// embedding with one proxy per element (the nodes' masses split, and seed 001's whole-body weights), and
 /// the two-way family and embedding at h/2 too.
 std::vector<Variant> default_variants() {
     using S = CouplingStrategy;
@@ -59,6 +60,8 @@ std::vector<Variant> default_variants() {
     v.push_back({S::OneSolver, 1, 1, 2});
     v.push_back({S::EmbedRigid, 1, 1, 1});
     v.push_back({S::EmbedRigid, 1, 1, 2});
+    v.push_back({S::EmbedRigid, 1, 1, 1, 0, 0, EmbedProxies::Elements, EmbedProxyMass::Physical});
+    v.push_back({S::EmbedRigid, 1, 1, 1, 0, 0, EmbedProxies::Elements, EmbedProxyMass::WholeBody});
     v.push_back({S::EmbedFem, 1, 1, 1});
     v.push_back({S::EmbedFem, 1, 1, 2});
     v.push_back({S::Auto, 1, 1, 1});

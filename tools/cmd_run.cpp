@@ -158,7 +158,19 @@ int run(const std::vector<std::string>& args) {
     if (recorder) recorder->finish();
     if (!opt.save.empty()) save_scene_file(*world, opt.save);  // SceneError (exit 1) if it cannot be written
 
-    const double energy = rigid.kinetic_energy() + soft.kinetic_energy();
+    // An embedded soft body's rigid proxies move with its nodes, whose energy the soft system counts: the
+    // proxies are left out (with seed 001's whole-body weights each would count the whole body again).
+    double energy = rigid.kinetic_energy() + soft.kinetic_energy();
+    for (std::uint32_t s = 0; s < rigid.slot_count(); ++s) {
+        if (!rigid.slot_alive(s)) continue;
+        const BodyId id = rigid.id_of_slot(s);
+        if (rigid.type(id) != BodyType::Dynamic || !world->coupling().embedding().is_proxy(id)) continue;
+        const Mat3 r = rigid.state().q[s].toRotationMatrix();
+        const Vec3& v = rigid.state().v[s];
+        const Vec3& w = rigid.state().w[s];
+        energy -= 0.5 * double(rigid.mass(id)) * double(v.squaredNorm()) +
+                  0.5 * double(w.dot(r * rigid.inertia_local(id) * r.transpose() * w));
+    }
     double max_stretch = 1;
     for (SoftBodyId id : soft.bodies()) max_stretch = std::max(max_stretch, double(soft.body(id).max_stretch()));
     nlohmann::ordered_json out;
@@ -202,7 +214,8 @@ const Command run_command = {
     "   strategy; \"coupling_pairs\": how many pairs override it; \"coupling_substeps\": soft steps per\n"
     "   step, if more than one), \"ms_per_step_median\" (wall\n"
     "   time), \"max_penetration\" (m, deepest rigid contact over the run), \"kinetic_energy\" (J, rigid and\n"
-    "   soft, at the end), \"max_stretch\" (largest current/rest length of a soft link at the end), \"finite\"}\n"
+    "   soft, at the end; embedded soft bodies' proxies left out), \"max_stretch\" (largest current/rest\n"
+    "   length of a soft link at the end), \"finite\"}\n"
     "A step that leaves any body state NaN or infinite stops the run with \"finite\": false.\n"
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"

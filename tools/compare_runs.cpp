@@ -18,6 +18,10 @@ std::string Variant::label() const {
     if (strategy == CouplingStrategy::Hybrid) s << " gain " << gain;
     if (substeps > 1) s << " x" << substeps << " soft";
     if (exchange > 0) s << " exchange " << exchange;
+    if (proxies == EmbedProxies::Elements) {
+        s << " elements";
+        if (proxy_mass == EmbedProxyMass::WholeBody) s << " whole-body";
+    }
     if (divide > 1) s << " h/" << divide;
     return s.str();
 }
@@ -29,6 +33,8 @@ Recording run_variant(const SceneDesc& scene, const Variant& v, int steps, const
     d.coupling.settings.strategy = v.strategy;
     d.coupling.settings.gain = v.gain;
     d.coupling.settings.substeps = v.substeps;
+    d.coupling.settings.embed_proxies = v.proxies;
+    d.coupling.settings.embed_proxy_mass = v.proxy_mass;
     d.coupling.pairs.clear();  // the variant's strategy for every pair
     d.settings.time_step = scene.settings.time_step / Real(v.divide);
     // Sleeping off: every run does the same work, and a body asleep in one run but not another would be

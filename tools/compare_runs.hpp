@@ -21,6 +21,8 @@ struct Variant {
     int divide = 1;
     int exchange = 0;    ///< two-way: exchange iterations (0: the scene's)
     Real tolerance = 0;  ///< auto: the tolerance (m); 0: the scene's
+    EmbedProxies proxies = EmbedProxies::Body;                ///< embed-rigid: one proxy per body or per element
+    EmbedProxyMass proxy_mass = EmbedProxyMass::Physical;     ///< embed-rigid per element: the nodes' weights
     std::string label() const;
     Real tolerance_in(const SceneDesc& scene) const { return tolerance > 0 ? tolerance : scene.coupling.settings.tolerance; }
 };

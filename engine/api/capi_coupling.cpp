@@ -87,6 +87,49 @@ sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float mete
     });
 }
 
+sinew_status sinew_world_set_embed_proxies(sinew_world_id world, sinew_embed_proxies proxies, sinew_embed_mass mass) {
+    const char* fn = "sinew_world_set_embed_proxies";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        // Compared as ints: a value out of the enum's range is not loaded as one (it would be undefined).
+        const int p = enum_value(proxies), m = enum_value(mass);
+        if (p < 0 || p >= int(EmbedProxies::Count))
+            return invalid(fn, "proxies = " + std::to_string(p) + " is not SINEW_EMBED_BODY (0) or SINEW_EMBED_ELEMENTS (1)");
+        if (m < 0 || m >= int(EmbedProxyMass::Count))
+            return invalid(fn, "mass = " + std::to_string(m) +
+                                   " is not SINEW_EMBED_MASS_PHYSICAL (0) or SINEW_EMBED_MASS_WHOLE_BODY (1)");
+        CouplingSettings c = w->coupling().settings();
+        c.embed_proxies = EmbedProxies(p);
+        c.embed_proxy_mass = EmbedProxyMass(m);
+        w->set_coupling(c);
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_soft_element_proxies(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out,
+                                                  int capacity, int* count) {
+    const char* fn = "sinew_world_get_soft_element_proxies";
+    return guarded(fn, [&] {
+        if (!count) return null_arg(fn, "count");
+        if (capacity < 0) return invalid(fn, "capacity = " + std::to_string(capacity) + " must be >= 0");
+        if (!out && capacity > 0) return null_arg(fn, "out");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        SoftBodyId id;
+        if (sinew_status st = soft_of(w, world, soft, fn, id)) return st;
+        const std::vector<BodyId>& proxies = w->coupling().embedding().element_proxies(id);
+        int n = 0;
+        for (const BodyId& b : proxies) {
+            if (n >= capacity) break;
+            out[n++] = {pack_world(world), b.index, b.generation};
+        }
+        *count = n;
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,
                                            sinew_coupling* strategy) {
     const char* fn = "sinew_world_get_pair_coupling";
@@ -141,6 +184,10 @@ sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id
         // is embedded.
         w->coupling().need_proxy(id);
         const BodyId proxy = w->coupling().embedding().proxy(id);
+        if (proxy.is_null() && !w->coupling().embedding().element_proxies(id).empty())
+            return invalid(fn, "soft body {index " + std::to_string(soft.index) +
+                                   "} is embedded with one proxy per element (SINEW_EMBED_ELEMENTS): it has no "
+                                   "whole-body proxy (sinew_world_get_soft_element_proxy names one element's)");
         if (proxy.is_null())
             return invalid(fn, "soft body {index " + std::to_string(soft.index) +
                                    "} is not embedded (its coupling strategy is not SINEW_COUPLING_EMBED_RIGID)");

@@ -733,6 +733,30 @@ SINEW_API sinew_status sinew_world_get_pair_coupling(sinew_world_id world, sinew
  *  asking for the proxy embeds the body (a joint is to hold it) unless a pair override says otherwise;
  *  SINEW_ERROR_INVALID_ARGUMENT during a step (a proxy may be made). */
 SINEW_API sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id* out);
+/* SINEW_COUPLING_EMBED_RIGID's proxies (docs/coupling.md, "Element proxies"): one rigid proxy per soft
+ * body, or one per element (per tet; per surface triangle without tets; per structural link without
+ * either), neighbours exchanging velocity changes through their shared nodes in every solver pass. */
+typedef enum sinew_embed_proxies {
+    SINEW_EMBED_BODY = 0,     /* one proxy per soft body (default): joints accept it */
+    SINEW_EMBED_ELEMENTS = 1  /* one proxy per element */
+} sinew_embed_proxies;
+typedef enum sinew_embed_mass {
+    SINEW_EMBED_MASS_PHYSICAL = 0,   /* an element weighs its nodes by their masses: momentum exchanged exactly */
+    SINEW_EMBED_MASS_WHOLE_BODY = 1  /* each element weighs the whole body (seed 001): faster to stop, the nodes
+                                        take only their share of an impulse */
+} sinew_embed_mass;
+/** The proxies of every soft body the world embeds (SINEW_COUPLING_EMBED_RIGID), remade at once; under
+ *  SINEW_COUPLING_AUTO bodies are embedded with one proxy each whatever this says. Changing the kind
+ *  drops the old proxies and their joints. SINEW_ERROR_INVALID_ARGUMENT for a value out of range, or
+ *  during a step. */
+SINEW_API sinew_status sinew_world_set_embed_proxies(sinew_world_id world, sinew_embed_proxies proxies,
+                                                     sinew_embed_mass mass);
+/** Up to capacity handles of a soft body's element proxies (SINEW_EMBED_ELEMENTS), one per element in
+ *  the order of its tets (or triangles, or structural links); *count receives how many were written
+ *  (0 if it is not embedded that way). A joint accepts one as either body; it is made anew, its joints
+ *  gone, when a node of the body is pinned or freed. */
+SINEW_API sinew_status sinew_world_get_soft_element_proxies(sinew_world_id world, sinew_soft_body_id soft,
+                                                            sinew_body_id* out, int capacity, int* count);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:
  *  every rigid body), from the next step; a later call for the same pair replaces it. */
 SINEW_API sinew_status sinew_world_set_pair_coupling(sinew_world_id world, sinew_soft_body_id soft, sinew_body_id rigid,

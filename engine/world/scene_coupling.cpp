@@ -16,7 +16,8 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
     // Files written before the section existed may hold the reserved empty array: the default, one-way.
     if (node.json().is_array() && node.json().empty()) return;
     node.expect_object();
-    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "tolerance", "pairs", "compare_reference"});
+    node.allow_keys({"strategy", "exchange_iterations", "gain", "substeps", "tolerance", "proxies", "proxy_mass", "pairs",
+                     "compare_reference"});
     desc.coupling.compare_reference = read_strategy(node, "compare_reference", desc.coupling.compare_reference);
     if (desc.coupling.compare_reference == CouplingStrategy::Auto)
         node.get("compare_reference").fail("the reference must be a strategy that runs as it is, not \"auto\"");
@@ -29,6 +30,9 @@ void parse_coupling(const Node& node, SceneDesc& desc) {
         s.tolerance = checked(*t, Range::Positive);
         if (s.tolerance > kMaxCouplingTolerance) t->fail("tolerance must be in (0, 1000] m, got " + t->json().dump());
     }
+    s.embed_proxies = read_enum_named(node, "proxies", s.embed_proxies, int(EmbedProxies::Count), embed_proxies_name);
+    s.embed_proxy_mass =
+        read_enum_named(node, "proxy_mass", s.embed_proxy_mass, int(EmbedProxyMass::Count), embed_proxy_mass_name);
     if (s.substeps > 1 && s.strategy != CouplingStrategy::OneWay && s.strategy != CouplingStrategy::Hybrid)
         node.get("substeps").fail("substeps = " + std::to_string(s.substeps) + " needs the one-way or hybrid strategy, got \"" +
                                   coupling_strategy_name(s.strategy) + "\"");

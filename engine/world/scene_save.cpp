@@ -393,6 +393,12 @@ std::string scene_text(const World& world, const std::string& name, const std::s
         // and the joint's zero turned to match (the proxy made at load is unturned): with c the proxy's
         // orientation now, q_A^-1 q_B = ref becomes c ref for a proxy A and ref c^-1 for a proxy B.
         const SoftBodyId sa = soft_of(d.body_a), sb = soft_of(d.body_b);
+        for (const SoftBodyId& held : {sa, sb})
+            if (!held.is_null() && embedding.proxy(held).is_null())  // one of its element proxies
+                throw SceneError(origin, "/joints/" + std::to_string(joints.size()),
+                                 "a joint holds an element proxy of soft body " + std::to_string(held.index) +
+                                     " (coupling proxies \"elements\"), which a scene file cannot name (a joint "
+                                     "in a file holds a soft body's whole-body proxy)");
         const bool zero_given = d.reference_rotation.coeffs().squaredNorm() > 0;
         if (!sa.is_null()) {
             const Transform xf = rigid.transform(d.body_a);
@@ -429,12 +435,16 @@ std::string scene_text(const World& world, const std::string& name, const std::s
     }
     if (c.strategy != defaults.strategy || c.exchange_iterations != defaults.exchange_iterations ||
         c.gain != defaults.gain || c.substeps != defaults.substeps || c.tolerance != defaults.tolerance ||
-        !pairs.empty()) {
+        c.embed_proxies != defaults.embed_proxies || c.embed_proxy_mass != defaults.embed_proxy_mass || !pairs.empty()) {
         Json j = {{"strategy", coupling_strategy_name(c.strategy)},
                   {"exchange_iterations", c.exchange_iterations},
                   {"gain", c.gain},
                   {"substeps", c.substeps}};
         if (c.strategy == CouplingStrategy::Auto || c.tolerance != defaults.tolerance) j["tolerance"] = c.tolerance;
+        if (c.embed_proxies != defaults.embed_proxies || c.embed_proxy_mass != defaults.embed_proxy_mass) {
+            j["proxies"] = embed_proxies_name(c.embed_proxies);
+            j["proxy_mass"] = embed_proxy_mass_name(c.embed_proxy_mass);
+        }
         if (!pairs.empty()) j["pairs"] = std::move(pairs);
         doc["coupling"] = std::move(j);
     }
