@@ -12,8 +12,7 @@
 namespace sinew {
 
 namespace {
-// As RigidEmbedding::kHullFlatness: points within 0.4% of the diagonal of a plane share a face.
-constexpr Real kHullFlatness = Real(0.004);
+constexpr Real kHullFlatness = kProxyHullFlatness;
 /// An element's hull is made anew once a node has moved this share of the body's thickness in the
 /// element's frame since the last one (a contact then errs by at most that much).
 constexpr Real kHullRefresh = Real(0.1);
@@ -74,12 +73,14 @@ Shape element_hull(std::vector<Vec3>& local, Real thickness) {
     return make_proxy_hull(local, thickness, kHullFlatness);
 }
 
-bool all_finite(const std::vector<Vec3>& a) {
-    for (const Vec3& x : a)
-        if (!is_finite(x)) return false;
-    return true;
-}
 }  // namespace
+
+Vec3 predicted_node_velocity(const SoftBody& b, std::uint32_t i, Real h) {
+    // Fast mass-spring's first iterate leaves gravity out (a body at rest starts at its solution); its
+    // inertial target y holds the step's predicted motion.
+    const Vec3 to = b.def.method == SoftMethod::FastMassSpring ? fast_mass_spring_target(b, i, h) : b.p.x_next[i];
+    return (to - b.p.x[i]) / h;
+}
 
 ElementProxies::ElementProxies(RigidSystem& rigid, SoftSystem& soft, std::vector<std::uint32_t>& soft_slot_of_rigid,
                                std::uint32_t no_soft)
@@ -96,6 +97,13 @@ std::size_t ElementProxies::count() const {
 }
 
 bool ElementProxies::embedded(std::uint32_t s) const { return s < sets_.size() && !sets_[s].body.empty(); }
+
+bool ElementProxies::current(std::uint32_t s) const {
+    // The body the proxies were made of, still there: a slot destroyed and reused since the last update
+    // (which a diverged body can skip) has another body of other nodes.
+    return embedded(s) && soft_.slot_alive(s) && soft_.id_of_slot(s).generation == sets_[s].soft_generation &&
+           soft_.slot_body(s).p.size() == sets_[s].node_v.size();
+}
 
 std::uint32_t ElementProxies::generation(std::uint32_t s) const { return embedded(s) ? sets_[s].soft_generation : 0; }
 
@@ -119,7 +127,8 @@ std::vector<std::uint32_t> ElementProxies::element_nodes(std::uint32_t s, std::s
 void ElementProxies::destroy(std::uint32_t s) {
     Set& set = sets_[s];
     for (const BodyId& id : set.body) {
-        if (rigid_.valid(id)) rigid_.destroy_body(id);
+        if (!rigid_.valid(id)) continue;  // destroyed from outside: its slot may hold another proxy now
+        rigid_.destroy_body(id);
         if (id.index < soft_slot_of_rigid_.size() && soft_slot_of_rigid_[id.index] == s) soft_slot_of_rigid_[id.index] = no_soft_;
     }
     set = Set{};  // the embedding sets the soft body's flags after every update
@@ -202,12 +211,23 @@ void ElementProxies::create(std::uint32_t s, EmbedProxyMass mass) {
     set.node_v0.assign(n, Vec3::Zero());
     CollisionFilter filter = b.def.filter;
     filter.group = element_group(s);
-    std::vector<BodyId> targets;  // what the body hangs on: its proxies do not collide with those
-    for (const Attachment& a : b.attachments) {
-        const BodyId t = unpack_body_id(a.target);
-        if (rigid_.valid(t) && std::find(targets.begin(), targets.end(), t) == targets.end()) targets.push_back(t);
+    // A body or hull that cannot be made (it should not happen: the nodes were checked finite) leaves
+    // nothing behind: the bodies made so far go, and the set is empty.
+    try {
+        create_bodies(s, b, set, filter);
+        if (!write(s, set, b.p.v, Write::Reshape)) {
+            // Checked before (RigidEmbedding::update_membership): only a velocity can be non-finite here.
+            std::vector<Vec3> still(n, Vec3::Zero());
+            write(s, set, still, Write::Reshape);
+        }
+    } catch (...) {
+        destroy(s);
+        throw;
     }
-    for (std::size_t e = 0; e < ne; ++e) {
+}
+
+void ElementProxies::create_bodies(std::uint32_t s, const SoftBody& b, Set& set, const CollisionFilter& filter) {
+    for (std::size_t e = 0; e + 1 < set.start.size(); ++e) {
         BodyDef def;
         def.type = set.kinematic[e] ? BodyType::Kinematic : BodyType::Dynamic;
         def.shape = make_sphere(Real(0.01));  // replaced by the hull in write()
@@ -227,13 +247,32 @@ void ElementProxies::create(std::uint32_t s, EmbedProxyMass mass) {
         soft_slot_of_rigid_[id.index] = s;
         if (element_of_rigid_.size() <= id.index) element_of_rigid_.resize(id.index + 1, ~std::uint32_t(0));
         element_of_rigid_[id.index] = std::uint32_t(e);
-        for (const BodyId& t : targets) rigid_.ignore_pair(id, t, true);
     }
-    if (!write(s, set, b.p.v, Write::Reshape)) {
-        // Checked before (RigidEmbedding::update_membership): only a velocity can be non-finite here.
-        std::vector<Vec3> still(n, Vec3::Zero());
-        write(s, set, still, Write::Reshape);
+    ignore_attachment_targets(b, set);
+}
+
+void ElementProxies::ignore_attachment_targets(const SoftBody& b, Set& set) {
+    // The proxies do not collide with what the body hangs on (a rope's links would always overlap the
+    // crate it is tied to), as joined bodies do not; checked every step, since attachments change.
+    std::vector<BodyId> now;
+    for (const Attachment& a : b.attachments) {
+        const BodyId t = unpack_body_id(a.target);
+        if (rigid_.valid(t) && !holds_any(set, t) && std::find(now.begin(), now.end(), t) == now.end()) now.push_back(t);
     }
+    if (now == set.ignored) return;
+    for (const BodyId& old : set.ignored)
+        if (rigid_.valid(old) && std::find(now.begin(), now.end(), old) == now.end())
+            for (const BodyId& id : set.body)
+                if (rigid_.valid(id)) rigid_.ignore_pair(id, old, false);
+    for (const BodyId& t : now)
+        if (std::find(set.ignored.begin(), set.ignored.end(), t) == set.ignored.end())
+            for (const BodyId& id : set.body)
+                if (rigid_.valid(id)) rigid_.ignore_pair(id, t, true);
+    set.ignored = std::move(now);
+}
+
+bool ElementProxies::holds_any(const Set& set, BodyId rigid) const {
+    return std::find(set.body.begin(), set.body.end(), rigid) != set.body.end();
 }
 
 namespace {
@@ -389,17 +428,20 @@ BodyVelocities ElementProxies::state_view() {
 }
 
 bool ElementProxies::stepping(std::uint32_t s) const {
-    return embedded(s) && sets_[s].stepped && soft_.slot_alive(s) && soft_.slot_body(s).stepping;
+    return current(s) && sets_[s].stepped && soft_.slot_body(s).stepping;
 }
 
 void ElementProxies::begin_step() {
     any_stepping_ = false;
     const BodyVelocities vel = state_view();
     for (std::uint32_t s = 0; s < sets_.size(); ++s) {
-        if (!embedded(s)) continue;
+        if (!current(s)) continue;
         Set& set = sets_[s];
         set.stepped = false;
+        set.pending = Vec3::Zero();
+        set.pending_substeps = 0;
         SoftBody& b = soft_.slot_body(s);
+        ignore_attachment_targets(b, set);
         // The body does not sleep (its proxies would fall asleep island by island, each a static obstacle
         // to the rest while the body moves): one asleep when it was embedded wakes.
         if (!b.awake) soft_.wake(soft_.id_of_slot(s));
@@ -415,7 +457,7 @@ void ElementProxies::after_soft_predict(Real h) {
     const BodyVelocities vel = state_view();
     const bool fall_in_solve = rigid_.gravity_in_solve();
     for (std::uint32_t s = 0; s < sets_.size(); ++s) {
-        if (!embedded(s) || !soft_.slot_body(s).stepping) continue;
+        if (!current(s) || !soft_.slot_body(s).stepping) continue;
         Set& set = sets_[s];
         SoftBody& b = soft_.slot_body(s);
         const Vec3 fall = h * b.def.gravity_scale * rigid_.settings().gravity;
@@ -432,13 +474,14 @@ void ElementProxies::after_soft_predict(Real h) {
         // internal forces; fast mass-spring's from Liu's inertial target). Under the soft step the proxies
         // start without the step's gravity, which its sub-steps give them a sub-step at a time (`pending`
         // until then); the nodes have it already, so it is never a change to give them.
-        const bool liu = b.def.method == SoftMethod::FastMassSpring;
-        for (std::uint32_t i = 0; i < b.p.size(); ++i)
-            set.node_v[i] = ((liu ? fast_mass_spring_target(b, i, h) : b.p.x_next[i]) - b.p.x[i]) / h;
+        for (std::uint32_t i = 0; i < b.p.size(); ++i) set.node_v[i] = predicted_node_velocity(b, i, h);
         set.node_v0 = set.node_v;
         set.pending = fall_in_solve ? fall : Vec3::Zero();
         set.pending_substeps = 0;  // prepare() knows how many sub-steps the solver takes
-        if (!write(s, set, set.node_v, Write::Velocity)) continue;  // diverged: the soft step's faults tell
+        if (!write(s, set, set.node_v, Write::Velocity)) {  // diverged: the soft step's faults tell
+            set.pending = Vec3::Zero();
+            continue;
+        }
         set.stepped = true;
         any_stepping_ = true;
     }
@@ -525,7 +568,7 @@ void ElementProxies::after_rigid_positions(Real h) {
 void ElementProxies::end_step() {
     // Where the nodes ended, for queries between steps.
     for (std::uint32_t s = 0; s < sets_.size(); ++s)
-        if (embedded(s) && sets_[s].stepped && soft_.slot_alive(s)) write(s, sets_[s], soft_.slot_body(s).p.v, Write::Pose);
+        if (current(s) && sets_[s].stepped) write(s, sets_[s], soft_.slot_body(s).p.v, Write::Pose);
 }
 
 }  // namespace sinew

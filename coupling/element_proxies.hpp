@@ -45,6 +45,10 @@
 
 namespace sinew {
 
+/// A node's velocity over the step as its soft method predicts it: (x_next - x_n) / h, or for fast
+/// mass-spring from Liu's inertial target (its first iterate leaves gravity out).
+Vec3 predicted_node_velocity(const SoftBody& b, std::uint32_t i, Real h);
+
 class ElementProxies final : public ConstraintRows {
 public:
     /// `soft_slot_of_rigid` is the embedding's map from a rigid slot to the soft slot whose proxy it is
@@ -96,6 +100,7 @@ private:
         std::vector<Real> inv_valence;        ///< per node: 1 / the dynamic elements holding it (0: none)
         std::vector<Vec3> hull_at;            ///< the node in its element's frame when the hull was made
         std::vector<std::uint8_t> hulled;     ///< per element: has a hull (else the placeholder sphere)
+        std::vector<BodyId> ignored;          ///< bodies the soft body is attached to: no collision with them
         // Per step.
         std::vector<Vec3> com;       ///< per element, where it was last measured
         std::vector<Mat3> inv_inertia, inertia;  ///< per element, world, at the last measurement
@@ -125,6 +130,11 @@ private:
     void give(std::uint32_t slot, Set& set, bool predicted, Real h);
     void destroy(std::uint32_t slot);
     void create(std::uint32_t slot, EmbedProxyMass mass);
+    void create_bodies(std::uint32_t slot, const SoftBody& b, Set& set, const CollisionFilter& filter);
+    void ignore_attachment_targets(const SoftBody& b, Set& set);
+    bool holds_any(const Set& set, BodyId rigid) const;
+    /// Slot s has proxies made of the body now in it (not of one destroyed since, whose slot was reused).
+    bool current(std::uint32_t slot) const;
     bool stepping(std::uint32_t slot) const;
     BodyVelocities state_view();
 

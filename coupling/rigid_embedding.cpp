@@ -10,12 +10,6 @@
 namespace sinew {
 
 namespace {
-bool all_finite(const std::vector<Vec3>& a) {
-    for (const Vec3& x : a)
-        if (!is_finite(x)) return false;
-    return true;
-}
-
 bool anchored(const SoftBody& b) {
     for (Real im : b.p.inv_mass)
         if (im == 0) return true;
@@ -319,9 +313,7 @@ void RigidEmbedding::after_soft_predict(Real h) {
         v.resize(b.p.size());
         // Fast mass-spring's first iterate leaves gravity out (a body at rest starts at its solution);
         // its inertial target y holds the step's predicted motion.
-        const bool liu = b.def.method == SoftMethod::FastMassSpring;
-        for (std::uint32_t i = 0; i < v.size(); ++i)
-            v[i] = ((liu ? fast_mass_spring_target(b, i, h) : b.p.x_next[i]) - b.p.x[i]) / h;
+        for (std::uint32_t i = 0; i < v.size(); ++i) v[i] = predicted_node_velocity(b, i, h);
         if (!px.anchored && fall_in_solve) {
             // The solver adds the step's gravity a sub-step at a time (the soft step): the proxy starts
             // without it, and what the solve adds is not a change to give the nodes.

@@ -70,6 +70,8 @@ public:
     /// The element proxies of soft body `id` (embedded with CouplingSettings::embed_proxies = Elements),
     /// one per element in the order ElementProxies found them; empty if it is not embedded that way.
     const std::vector<BodyId>& element_proxies(SoftBodyId id) const;
+    /// Is soft body `id` embedded with one proxy per element (it has no whole-body proxy then)?
+    bool embedded_by_elements(SoftBodyId id) const { return !element_proxies(id).empty(); }
     /// The nodes of element e of soft body `id` (empty if none).
     std::vector<std::uint32_t> element_nodes(SoftBodyId id, std::size_t e) const;
     /// The soft body whose proxy `rigid` is, or a null id. Constant time (tools call it per manifold).
@@ -101,7 +103,7 @@ public:
     std::size_t count() const;
     /// Relative flatness of the proxies' hulls (make_convex_hull): points within it x the diagonal of a
     /// plane share one face.
-    static constexpr Real kHullFlatness = Real(0.004);
+    static constexpr Real kHullFlatness = kProxyHullFlatness;
 
 private:
     struct Proxy {

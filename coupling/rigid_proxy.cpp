@@ -29,6 +29,12 @@ Mat3 polar_rotation(const Mat3& a) {
     return (u * vt).cast<Real>();
 }
 
+bool all_finite(const std::vector<Vec3>& points) {
+    for (const Vec3& x : points)
+        if (!is_finite(x)) return false;
+    return true;
+}
+
 Shape make_proxy_hull(std::vector<Vec3>& local, Real thickness, Real flatness) {
     try {
         return make_convex_hull(local, flatness);

@@ -39,6 +39,12 @@ struct RigidProxyState {
 RigidProxyState measure_rigid_proxy(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                                     const std::vector<Real>& mass, const std::vector<Vec3>& rest, Real radius = 0);
 
+/// Points within this share of the diagonal of a plane share one face of a proxy's hull.
+constexpr Real kProxyHullFlatness = Real(0.004);
+
+/// Every position finite (a diverged soft body's are not: no proxy is measured from them).
+bool all_finite(const std::vector<Vec3>& points);
+
 /// The convex hull of nodes given in the proxy's frame (`local`, used as scratch: nodes may be added),
 /// points within `flatness` x the diagonal of a plane sharing one face. A set with no volume (a cloth, a
 /// link, one triangle) has each node doubled `thickness` (at least the flatness) to either side along

@@ -211,8 +211,16 @@ TEST_CASE("C API: embedding a cloth one proxy per triangle, each weighing the wh
     // One proxy per surface triangle: 15 x 15 quads, two triangles each.
     std::vector<sinew_body_id> proxies(1000);
     int count = -1;
+    REQUIRE(sinew_world_get_soft_element_proxies(t.world, t.cloth, nullptr, 0, &count) == SINEW_OK);  // how many
+    CHECK(count == 2 * 15 * 15);
     REQUIRE(sinew_world_get_soft_element_proxies(t.world, t.cloth, proxies.data(), int(proxies.size()), &count) == SINEW_OK);
     CHECK(count == 2 * 15 * 15);
+    sinew_body_type type;
+    REQUIRE(sinew_body_get_type(proxies[100], &type) == SINEW_OK);  // an inner triangle: dynamic
+    CHECK(type == SINEW_BODY_DYNAMIC);
+    float mass = 0;
+    REQUIRE(sinew_body_get_mass(proxies[100], &mass) == SINEW_OK);
+    CHECK(mass == Approx(0.5f).epsilon(1e-5));  // each weighs the whole cloth
     sinew_body_id whole;
     CHECK(sinew_world_get_soft_proxy(t.world, t.cloth, &whole) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK(std::strstr(sinew_last_error(), "one proxy per element"));

@@ -177,6 +177,23 @@ TEST_CASE("run of the showcase prints one finite JSON line", "[tool]") {
     CHECK(j["kinetic_energy"].get<double>() > 0);
 }
 
+TEST_CASE("run --proxies elements embeds one proxy per element and says so, and refuses an unknown kind", "[tool][elements]") {
+    const std::string scene = quote(kSource + "/demos/scenes/stack-of-soft-cubes.json");
+    const Result r = sinew_cmd("run " + scene + " --steps 3 --coupling embed-rigid --proxies elements --proxy-mass whole-body");
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const nlohmann::json j = nlohmann::json::parse(lines_of(r.out).at(0));
+    CHECK(j["coupling_proxies"] == "elements");
+    CHECK(j["coupling_proxy_mass"] == "whole-body");
+    CHECK(j["bodies"] == 1 + 5 * 40);  // the ground and five cubes of 40 tets, one proxy each
+    CHECK(j["finite"] == true);
+    const Result bad = sinew_cmd("run " + scene + " --proxies sideways");
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 2);
+    CHECK_THAT(bad.err, Contains("--proxies: unknown 'sideways'"));
+}
+
 TEST_CASE("run warns of a body past its method's limit, names it when it blows up, and exits 3", "[tool][errors]") {
     // cloth-32 under semi-implicit Euler: 10^4 N/m springs on 1 g particles, stable only below h = 0.44 ms.
     nlohmann::ordered_json scene = nlohmann::ordered_json::parse(slurp(kSource + "/demos/scenes/cloth-32.json"));

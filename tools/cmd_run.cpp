@@ -29,6 +29,8 @@ struct RunOptions {
     bool record_contacts = false;
     std::string save;
     std::optional<CouplingStrategy> coupling;
+    std::optional<EmbedProxies> proxies;
+    std::optional<EmbedProxyMass> proxy_mass;
     int workers = 1;
 };
 
@@ -56,6 +58,17 @@ RunOptions parse_options(const std::vector<std::string>& args) {
             if (!parse_coupling_strategy(name, c))
                 throw UsageError("unknown coupling strategy '" + name + "' (expected one of: " + coupling_strategy_list() + ")");
             o.coupling = c;
+        } else if (is_option(a, "--proxies")) {
+            const std::string name = option_value(args, i, "--proxies");
+            EmbedProxies p;
+            if (!parse_embed_proxies(name, p)) throw UsageError("--proxies: unknown '" + name + "' (expected body or elements)");
+            o.proxies = p;
+        } else if (is_option(a, "--proxy-mass")) {
+            const std::string name = option_value(args, i, "--proxy-mass");
+            EmbedProxyMass m;
+            if (!parse_embed_proxy_mass(name, m))
+                throw UsageError("--proxy-mass: unknown '" + name + "' (expected physical or whole-body)");
+            o.proxy_mass = m;
         } else if (!a.empty() && a[0] == '-') {
             throw UsageError("unknown option '" + a + "'");
         } else if (o.scene.empty()) {
@@ -109,6 +122,8 @@ int run(const std::vector<std::string>& args) {
         if (*opt.coupling != CouplingStrategy::OneWay && *opt.coupling != CouplingStrategy::Hybrid)
             scene.coupling.settings.substeps = 1;
     }
+    if (opt.proxies) scene.coupling.settings.embed_proxies = *opt.proxies;
+    if (opt.proxy_mass) scene.coupling.settings.embed_proxy_mass = *opt.proxy_mass;
 
     std::vector<BodyId> ids;
     const std::unique_ptr<World> world = build_world(scene, &ids);
@@ -189,6 +204,10 @@ int run(const std::vector<std::string>& args) {
             picks[compare::scene_soft_name(scene, p.soft)] = coupling_strategy_name(p.strategy);
         out["coupling_picks"] = std::move(picks);
     }
+    if (world->coupling().settings().embed_proxies == EmbedProxies::Elements) {
+        out["coupling_proxies"] = embed_proxies_name(EmbedProxies::Elements);
+        out["coupling_proxy_mass"] = embed_proxy_mass_name(world->coupling().settings().embed_proxy_mass);
+    }
     if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;
     out["ms_per_step_median"] = round_sig(bench::median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))
@@ -205,17 +224,18 @@ int run(const std::vector<std::string>& args) {
 
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
-    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--workers N] [--record FILE]\n"
-    "                [--record-contacts] [--save FILE]\n"
+    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--proxies body|elements]\n"
+    "                [--proxy-mass physical|whole-body] [--workers N] [--record FILE] [--record-contacts]\n"
+    "                [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
     "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"workers\" (if more than one), \"coupling\" (the world's\n"
     "   strategy; \"coupling_pairs\": how many pairs override it; \"coupling_substeps\": soft steps per\n"
-    "   step, if more than one), \"ms_per_step_median\" (wall\n"
-    "   time), \"max_penetration\" (m, deepest rigid contact over the run), \"kinetic_energy\" (J, rigid and\n"
-    "   soft, at the end; embedded soft bodies' proxies left out), \"max_stretch\" (largest current/rest\n"
-    "   length of a soft link at the end), \"finite\"}\n"
+    "   step, if more than one; \"coupling_proxies\" and \"coupling_proxy_mass\" with element proxies),\n"
+    "   \"ms_per_step_median\" (wall time), \"max_penetration\" (m, deepest rigid contact over the run),\n"
+    "   \"kinetic_energy\" (J, rigid and soft, at the end; embedded soft bodies' proxies left out),\n"
+    "   \"max_stretch\" (largest current/rest length of a soft link at the end), \"finite\"}\n"
     "A step that leaves any body state NaN or infinite stops the run with \"finite\": false.\n"
     "\n"
     "  --steps N       number of steps (0 allowed: only build the world)\n"
@@ -223,6 +243,9 @@ const Command run_command = {
     "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid, interleaved or\n"
     "                  one-solver, embed-rigid or embed-fem (overrides the scene's \"coupling\" section, its pairs included;\n"
     "                  docs/coupling.md)\n"
+    "  --proxies P     embed-rigid's proxies: one per soft body (body) or one per element (elements)\n"
+    "  --proxy-mass M  element proxies' node weights: physical (masses split, momentum exact) or\n"
+    "                  whole-body (seed 001's: each element weighs the whole body)\n"
     "  --workers N     threads for each step, this one included (default 1; results are bit-identical\n"
     "                  for every N)\n"
     "  --record FILE   write every frame's body transforms and particle positions to FILE\n"

@@ -1,5 +1,7 @@
 // The C API's coupling settings (sinew.h, "How rigid and soft bodies act on each other"): the world's
 // strategy and per-pair overrides, through World::set_coupling (coupling/coupling_layer.hpp).
+#include <algorithm>
+#include <limits>
 #include <string>
 
 #include "engine/api/capi_internal.hpp"
@@ -119,13 +121,12 @@ sinew_status sinew_world_get_soft_element_proxies(sinew_world_id world, sinew_so
         if (!w) return SINEW_ERROR_STALE_ID;
         SoftBodyId id;
         if (sinew_status st = soft_of(w, world, soft, fn, id)) return st;
+        if (sinew_status st = check_not_stepping(w, fn)) return st;  // proxies may be made or dropped
+        w->coupling().refresh_embedding();  // a body created or pinned since the last step has its proxies now
         const std::vector<BodyId>& proxies = w->coupling().embedding().element_proxies(id);
-        int n = 0;
-        for (const BodyId& b : proxies) {
-            if (n >= capacity) break;
-            out[n++] = {pack_world(world), b.index, b.generation};
-        }
-        *count = n;
+        const std::size_t n = std::min(proxies.size(), std::size_t(capacity));
+        for (std::size_t k = 0; k < n; ++k) out[k] = {pack_world(world), proxies[k].index, proxies[k].generation};
+        *count = int(std::min(proxies.size(), std::size_t(std::numeric_limits<int>::max())));
         return SINEW_OK;
     });
 }
@@ -184,10 +185,10 @@ sinew_status sinew_world_get_soft_proxy(sinew_world_id world, sinew_soft_body_id
         // is embedded.
         w->coupling().need_proxy(id);
         const BodyId proxy = w->coupling().embedding().proxy(id);
-        if (proxy.is_null() && !w->coupling().embedding().element_proxies(id).empty())
+        if (proxy.is_null() && w->coupling().embedding().embedded_by_elements(id))
             return invalid(fn, "soft body {index " + std::to_string(soft.index) +
                                    "} is embedded with one proxy per element (SINEW_EMBED_ELEMENTS): it has no "
-                                   "whole-body proxy (sinew_world_get_soft_element_proxy names one element's)");
+                                   "whole-body proxy (sinew_world_get_soft_element_proxies lists the elements')");
         if (proxy.is_null())
             return invalid(fn, "soft body {index " + std::to_string(soft.index) +
                                    "} is not embedded (its coupling strategy is not SINEW_COUPLING_EMBED_RIGID)");

@@ -746,15 +746,16 @@ typedef enum sinew_embed_mass {
                                         take only their share of an impulse */
 } sinew_embed_mass;
 /** The proxies of every soft body the world embeds (SINEW_COUPLING_EMBED_RIGID), remade at once; under
- *  SINEW_COUPLING_AUTO bodies are embedded with one proxy each whatever this says. Changing the kind
- *  drops the old proxies and their joints. SINEW_ERROR_INVALID_ARGUMENT for a value out of range, or
- *  during a step. */
+ *  SINEW_COUPLING_AUTO bodies are embedded with one proxy each whatever this says. Changing the kind, or
+ *  the weights of element proxies, drops the old proxies and their joints. SINEW_ERROR_INVALID_ARGUMENT
+ *  for a value out of range, or during a step. */
 SINEW_API sinew_status sinew_world_set_embed_proxies(sinew_world_id world, sinew_embed_proxies proxies,
                                                      sinew_embed_mass mass);
 /** Up to capacity handles of a soft body's element proxies (SINEW_EMBED_ELEMENTS), one per element in
- *  the order of its tets (or triangles, or structural links); *count receives how many were written
- *  (0 if it is not embedded that way). A joint accepts one as either body; it is made anew, its joints
- *  gone, when a node of the body is pinned or freed. */
+ *  the order of its tets (or triangles, or structural links); *count receives how many it has (0 if it
+ *  is not embedded that way; capacity 0 asks only that). A joint accepts one as either body; the proxies
+ *  are made anew, their joints gone, when a node of the body is pinned or freed.
+ *  SINEW_ERROR_INVALID_ARGUMENT during a step (proxies may be made). */
 SINEW_API sinew_status sinew_world_get_soft_element_proxies(sinew_world_id world, sinew_soft_body_id soft,
                                                             sinew_body_id* out, int capacity, int* count);
 /** Overrides the strategy between one soft body and one rigid body (`rigid` the null handle {0, 0, 0}:

@@ -86,7 +86,7 @@ std::unique_ptr<World> build_world(const SceneDesc& scene, std::vector<BodyId>* 
                 throw SceneError(scene.file, joint.json_path, std::string(joint_type_name(def.type)) + " joint: " + e.what());
             }
             const BodyId proxy = world->coupling().embedding().proxy(soft_ids.at(index));
-            if (proxy.is_null() && !world->coupling().embedding().element_proxies(soft_ids.at(index)).empty())
+            if (proxy.is_null() && world->coupling().embedding().embedded_by_elements(soft_ids.at(index)))
                 throw SceneError(scene.file, joint.json_path,
                                  std::string(joint_type_name(def.type)) + " joint: soft body \"" + sb.name +
                                      "\" is embedded with one proxy per element (coupling \"proxies\": \"elements\"); "

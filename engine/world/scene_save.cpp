@@ -394,7 +394,7 @@ std::string scene_text(const World& world, const std::string& name, const std::s
         // orientation now, q_A^-1 q_B = ref becomes c ref for a proxy A and ref c^-1 for a proxy B.
         const SoftBodyId sa = soft_of(d.body_a), sb = soft_of(d.body_b);
         for (const SoftBodyId& held : {sa, sb})
-            if (!held.is_null() && embedding.proxy(held).is_null())  // one of its element proxies
+            if (!held.is_null() && embedding.embedded_by_elements(held))
                 throw SceneError(origin, "/joints/" + std::to_string(joints.size()),
                                  "a joint holds an element proxy of soft body " + std::to_string(held.index) +
                                      " (coupling proxies \"elements\"), which a scene file cannot name (a joint "
