@@ -202,7 +202,6 @@ void ElementProxies::create(std::uint32_t s, EmbedProxyMass mass) {
     set.hull_at.resize(set.node.size());
     set.hulled.assign(ne, 0);
     set.com.resize(ne);
-    set.inertia.resize(ne);
     set.inv_inertia.resize(ne);
     set.q0.resize(ne);
     set.v_sync.assign(ne, Vec3::Zero());
@@ -326,7 +325,6 @@ bool ElementProxies::write(std::uint32_t s, Set& set, const std::vector<Vec3>& v
             inertia += Real(0.4) * m * ball * ball * Mat3::Identity();
             const Quat q = polar_iterated(a, set.hulled[e] ? st.q[id.index] : Quat::Identity());
             set.com[e] = c;
-            set.inertia[e] = inertia;
             set.inv_inertia[e] = inertia.inverse();
             if (what == Write::Reshape) {
                 // The hull follows the element's shape in its own frame, made anew only once a node has moved
@@ -538,8 +536,7 @@ void ElementProxies::after_rigid_positions(Real h) {
         Particles& p = b.p;
         std::vector<Vec3>& y = sx_;  // the nodes' end-of-step positions (SoftSystem::integrate_positions)
         y.resize(p.size());
-        for (std::size_t i = 0; i < p.size(); ++i)
-            y[i] = p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
+        for (std::size_t i = 0; i < p.size(); ++i) y[i] = end_of_step_position(p, i, h);
         std::vector<Vec3>& corr = sv_;
         corr.assign(p.size(), Vec3::Zero());
         for (std::size_t e = 0; e < set.body.size(); ++e) {

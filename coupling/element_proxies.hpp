@@ -48,6 +48,11 @@ namespace sinew {
 /// A node's velocity over the step as its soft method predicts it: (x_next - x_n) / h, or for fast
 /// mass-spring from Liu's inertial target (its first iterate leaves gravity out).
 Vec3 predicted_node_velocity(const SoftBody& b, std::uint32_t i, Real h);
+/// Where SoftSystem::integrate_positions will put particle i: x_next + h (v - v_solved) (a velocity change
+/// made after the soft solve still moves this step), x_next for a pinned or attached one.
+inline Vec3 end_of_step_position(const Particles& p, std::size_t i, Real h) {
+    return p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
+}
 
 class ElementProxies final : public ConstraintRows {
 public:
@@ -103,7 +108,7 @@ private:
         std::vector<BodyId> ignored;          ///< bodies the soft body is attached to: no collision with them
         // Per step.
         std::vector<Vec3> com;       ///< per element, where it was last measured
-        std::vector<Mat3> inv_inertia, inertia;  ///< per element, world, at the last measurement
+        std::vector<Mat3> inv_inertia;  ///< per element, world, at the last measurement
         std::vector<Quat> q0;        ///< per element, the orientation written
         std::vector<Vec3> v_sync, w_sync;  ///< per element, its velocity as this layer last wrote or read it
         std::vector<Vec3> node_v;    ///< per node, its velocity as the rigid solve has changed it

@@ -2,7 +2,6 @@
 #include "coupling/rigid_embedding.hpp"
 
 #include "coupling/coupling_layer.hpp"  // CouplingError
-#include "soft/soft_integrators.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -356,7 +355,7 @@ void RigidEmbedding::after_rigid_positions(Real h) {
         double m_total = 0;
         Eigen::Vector3d cm = Eigen::Vector3d::Zero();
         for (std::size_t i = 0; i < p.size(); ++i) {
-            y[i] = p.inv_mass[i] != 0 ? Vec3(p.x_next[i] + h * (p.v[i] - p.v_solved[i])) : p.x_next[i];
+            y[i] = end_of_step_position(p, i, h);
             m_total += p.mass[i];
             cm += double(p.mass[i]) * y[i].cast<double>();
         }
