@@ -194,6 +194,33 @@ TEST_CASE("run --proxies elements embeds one proxy per element and says so, and 
     CHECK_THAT(bad.err, Contains("--proxies: unknown 'sideways'"));
 }
 
+TEST_CASE("run --substeps, --gain and --exchange set the coupling section and say so, refusing what a strategy cannot take", "[tool]") {
+    const std::string scene = quote(kSource + "/demos/scenes/ball-on-trampoline.json");
+    const Result hybrid = sinew_cmd("run " + scene + " --steps 3 --coupling hybrid --substeps 5 --gain 0.5");
+    INFO("stdout: " << hybrid.out << "\nstderr: " << hybrid.err);
+    REQUIRE(hybrid.exited);
+    CHECK(hybrid.status == 0);
+    const nlohmann::json h = nlohmann::json::parse(lines_of(hybrid.out).at(0));
+    CHECK(h["coupling"] == "hybrid");
+    CHECK(h["coupling_substeps"] == 5);
+    CHECK(h["coupling_gain"] == 0.5);
+    CHECK(h["finite"] == true);
+    const Result two = sinew_cmd("run " + scene + " --steps 3 --exchange 4");  // the scene's two-way
+    REQUIRE(two.exited);
+    CHECK(two.status == 0);
+    const nlohmann::json t = nlohmann::json::parse(lines_of(two.out).at(0));
+    CHECK(t["coupling_exchange_iterations"] == 4);
+    CHECK(t.count("coupling_substeps") == 0);
+    const Result bad_substeps = sinew_cmd("run " + scene + " --coupling two-way --substeps 5");
+    REQUIRE(bad_substeps.exited);
+    CHECK(bad_substeps.status == 2);
+    CHECK_THAT(bad_substeps.err, Contains("substeps = 5"));
+    const Result bad_gain = sinew_cmd("run " + scene + " --gain 2");
+    REQUIRE(bad_gain.exited);
+    CHECK(bad_gain.status == 2);
+    CHECK_THAT(bad_gain.err, Contains("--gain expects a number in [0, 1], got '2'"));
+}
+
 TEST_CASE("run warns of a body past its method's limit, names it when it blows up, and exits 3", "[tool][errors]") {
     // cloth-32 under semi-implicit Euler: 10^4 N/m springs on 1 g particles, stable only below h = 0.44 ms.
     nlohmann::ordered_json scene = nlohmann::ordered_json::parse(slurp(kSource + "/demos/scenes/cloth-32.json"));

@@ -31,6 +31,9 @@ struct RunOptions {
     std::optional<CouplingStrategy> coupling;
     std::optional<EmbedProxies> proxies;
     std::optional<EmbedProxyMass> proxy_mass;
+    std::optional<int> substeps;
+    std::optional<int> exchange;
+    std::optional<double> gain;
     int workers = 1;
 };
 
@@ -58,6 +61,17 @@ RunOptions parse_options(const std::vector<std::string>& args) {
             if (!parse_coupling_strategy(name, c))
                 throw UsageError("unknown coupling strategy '" + name + "' (expected one of: " + coupling_strategy_list() + ")");
             o.coupling = c;
+        } else if (is_option(a, "--substeps")) {
+            o.substeps = int(parse_int("--substeps", option_value(args, i, "--substeps"), 1, 64));
+        } else if (is_option(a, "--exchange")) {
+            o.exchange = int(parse_int("--exchange", option_value(args, i, "--exchange"), 1, 100));
+        } else if (is_option(a, "--gain")) {
+            const std::string text = option_value(args, i, "--gain");
+            char* end = nullptr;
+            const double g = std::strtod(text.c_str(), &end);
+            if (text.empty() || *end != '\0' || !(g >= 0 && g <= 1))
+                throw UsageError("--gain expects a number in [0, 1], got '" + text + "'");
+            o.gain = g;
         } else if (is_option(a, "--proxies")) {
             const std::string name = option_value(args, i, "--proxies");
             EmbedProxies p;
@@ -121,6 +135,14 @@ int run(const std::vector<std::string>& args) {
         // Sub-steps are one-way's and hybrid's; the others step both systems together.
         if (*opt.coupling != CouplingStrategy::OneWay && *opt.coupling != CouplingStrategy::Hybrid)
             scene.coupling.settings.substeps = 1;
+    }
+    if (opt.substeps) scene.coupling.settings.substeps = *opt.substeps;
+    if (opt.exchange) scene.coupling.settings.exchange_iterations = *opt.exchange;
+    if (opt.gain) scene.coupling.settings.gain = Real(*opt.gain);
+    if (opt.substeps || opt.coupling) {
+        // Sub-steps the strategy cannot take are a wrong argument here, not a wrong scene.
+        const std::string problem = coupling_settings_problem(scene.coupling.settings);
+        if (!problem.empty()) throw UsageError(problem);
     }
     if (opt.proxies) scene.coupling.settings.embed_proxies = *opt.proxies;
     if (opt.proxy_mass) scene.coupling.settings.embed_proxy_mass = *opt.proxy_mass;
@@ -208,7 +230,16 @@ int run(const std::vector<std::string>& args) {
         out["coupling_proxies"] = embed_proxies_name(EmbedProxies::Elements);
         out["coupling_proxy_mass"] = embed_proxy_mass_name(world->coupling().settings().embed_proxy_mass);
     }
-    if (world->coupling().settings().substeps > 1) out["coupling_substeps"] = world->coupling().settings().substeps;
+    const CouplingSettings& cs = world->coupling().settings();
+    if (cs.substeps > 1) out["coupling_substeps"] = cs.substeps;
+    const auto in_use = [&](CouplingStrategy s) {
+        if (cs.strategy == s) return true;
+        for (const CouplingPair& p : cs.pairs)
+            if (p.strategy == s) return true;
+        return false;
+    };
+    if (in_use(CouplingStrategy::Hybrid)) out["coupling_gain"] = round_sig(double(cs.gain), 6);
+    if (in_use(CouplingStrategy::TwoWay)) out["coupling_exchange_iterations"] = cs.exchange_iterations;
     out["ms_per_step_median"] = round_sig(bench::median(step_ms), 4);
     out["max_penetration"] = std::isfinite(max_penetration) ? nlohmann::ordered_json(round_sig(max_penetration, 4))
                                                             : nlohmann::ordered_json(nullptr);
@@ -224,15 +255,16 @@ int run(const std::vector<std::string>& args) {
 
 const Command run_command = {
     "run", run, "step a scene headless and print one JSON line of measurements",
-    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--proxies body|elements]\n"
-    "                [--proxy-mass physical|whole-body] [--workers N] [--record FILE] [--record-contacts]\n"
-    "                [--save FILE]\n"
+    "usage: sinew run SCENE.json [--steps N] [--dt H] [--coupling STRATEGY] [--substeps K] [--gain G]\n"
+    "                [--exchange N] [--proxies body|elements] [--proxy-mass physical|whole-body]\n"
+    "                [--workers N] [--record FILE] [--record-contacts] [--save FILE]\n"
     "\n"
     "Steps the scene N times (default: the scene's settings.steps) with the fixed step H seconds\n"
     "(default: settings.time_step) and prints one JSON line:\n"
     "  {\"scene\", \"steps\" (taken), \"bodies\", \"soft_bodies\", \"particles\", \"workers\" (if more than one), \"coupling\" (the world's\n"
     "   strategy; \"coupling_pairs\": how many pairs override it; \"coupling_substeps\": soft steps per\n"
-    "   step, if more than one; \"coupling_proxies\" and \"coupling_proxy_mass\" with element proxies),\n"
+    "   step, if more than one; \"coupling_gain\" if a pair is hybrid; \"coupling_exchange_iterations\" if\n"
+    "   one is two-way; \"coupling_proxies\" and \"coupling_proxy_mass\" with element proxies),\n"
     "   \"ms_per_step_median\" (wall time), \"max_penetration\" (m, deepest rigid contact over the run),\n"
     "   \"kinetic_energy\" (J, rigid and soft, at the end; embedded soft bodies' proxies left out),\n"
     "   \"max_stretch\" (largest current/rest length of a soft link at the end), \"finite\"}\n"
@@ -243,6 +275,11 @@ const Command run_command = {
     "  --coupling S    rigid-soft coupling for every pair: one-way, two-way, hybrid, interleaved or\n"
     "                  one-solver, embed-rigid or embed-fem (overrides the scene's \"coupling\" section, its pairs included;\n"
     "                  docs/coupling.md)\n"
+    "  --substeps K    one-way's and hybrid's soft steps per rigid step, in [1, 64] (the scene's\n"
+    "                  coupling.substeps; --coupling with another strategy sets it to 1)\n"
+    "  --gain G        hybrid's share of the reaction sent back, in [0, 1] (coupling.gain)\n"
+    "  --exchange N    two-way's passes of the particle rows per step, in [1, 100]\n"
+    "                  (coupling.exchange_iterations)\n"
     "  --proxies P     embed-rigid's proxies: one per soft body (body) or one per element (elements)\n"
     "  --proxy-mass M  element proxies' node weights: physical (masses split, momentum exact) or\n"
     "                  whole-body (seed 001's: each element weighs the whole body)\n"

@@ -89,6 +89,33 @@ sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float mete
     });
 }
 
+sinew_status sinew_world_set_coupling_steps(sinew_world_id world, int substeps, int exchange_iterations) {
+    const char* fn = "sinew_world_set_coupling_steps";
+    return guarded(fn, [&] {
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        if (sinew_status s = check_not_stepping(w, fn)) return s;
+        CouplingSettings c = w->coupling().settings();
+        c.substeps = substeps;
+        c.exchange_iterations = exchange_iterations;
+        w->set_coupling(c);  // CouplingError names a count out of range or sub-steps a strategy cannot take
+        return SINEW_OK;
+    });
+}
+
+sinew_status sinew_world_get_coupling_steps(sinew_world_id world, int* substeps, int* exchange_iterations) {
+    const char* fn = "sinew_world_get_coupling_steps";
+    return guarded(fn, [&] {
+        if (!substeps) return null_arg(fn, "substeps");
+        if (!exchange_iterations) return null_arg(fn, "exchange_iterations");
+        World* w = find_world(world, fn);
+        if (!w) return SINEW_ERROR_STALE_ID;
+        *substeps = w->coupling().settings().substeps;
+        *exchange_iterations = w->coupling().settings().exchange_iterations;
+        return SINEW_OK;
+    });
+}
+
 sinew_status sinew_world_set_embed_proxies(sinew_world_id world, sinew_embed_proxies proxies, sinew_embed_mass mass) {
     const char* fn = "sinew_world_set_embed_proxies";
     return guarded(fn, [&] {

@@ -718,6 +718,13 @@ typedef enum sinew_coupling {
  *  is the hybrid strategy's share of the reaction (ignored by the others). Overrides are kept. */
 SINEW_API sinew_status sinew_world_set_coupling(sinew_world_id world, sinew_coupling strategy, float gain);
 SINEW_API sinew_status sinew_world_get_coupling(sinew_world_id world, sinew_coupling* strategy);
+/** How often the coupling layers act per step, from the next step: `substeps` soft steps per rigid step,
+ *  in [1, 64] (one-way and hybrid, against the rigid poses interpolated over the step: a stiff cloth at
+ *  300 Hz under a 60 Hz world takes 5; above 1 every strategy in use, overrides too, must be one of those
+ *  two); `exchange_iterations` in [1, 100], two-way's passes of the particle rows per step (default 2).
+ *  A value out of range, or sub-steps the strategies cannot take, is refused and nothing changes. */
+SINEW_API sinew_status sinew_world_set_coupling_steps(sinew_world_id world, int substeps, int exchange_iterations);
+SINEW_API sinew_status sinew_world_get_coupling_steps(sinew_world_id world, int* substeps, int* exchange_iterations);
 /** SINEW_COUPLING_AUTO's position tolerance in metres, in (0, 1000] (default 0.01); picks again at once. */
 SINEW_API sinew_status sinew_world_set_coupling_tolerance(sinew_world_id world, float meters);
 /** The strategy acting between a soft body and a rigid body (`rigid` null: its strategy against every
