@@ -257,6 +257,11 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
         const Vec3 r = b.p.x[i] - st.x[o];
         Vec3 v = st.v[o] + st.w[o].cross(r);
         if (gravity_pending) v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
+        // The share pushes along the line through the particle: on a round body, through its axis.
+        Vec3 round_normal, surface;
+        if (round_body_normal(rigid_.slot_shape(o), rigid_.slot_transform(o), b.p.x[i], b.contact_normal[i],
+                              3 * b.def.thickness, round_normal, surface))
+            b.contact_normal[i] = round_normal;
         const Vec3& n = b.contact_normal[i];
         b.contact_speed[i] = n.dot(v);
         b.contact_surface_v[i] = v;

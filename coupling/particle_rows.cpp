@@ -17,7 +17,21 @@ constexpr Real kMaxPushVelocity = 2;
 constexpr Real kSlop = Real(0.001);
 // Below this length a link's direction is undefined and its row is skipped for the pass (as Verlet does).
 constexpr Real kMinLinkLength = Real(1e-9);
+// round_body_normal keeps the found normal unless the one under the particle now faces within about 25
+// degrees of it (the same side of the body).
+constexpr Real kSameFacing = Real(0.9);
 }  // namespace
+
+bool round_body_normal(const Shape& shape, const Transform& xf, const Vec3& point, const Vec3& found, Real reach,
+                       Vec3& normal, Vec3& surface) {
+    if (shape.type != ShapeType::Sphere && shape.type != ShapeType::Capsule) return false;
+    Vec3 n, p;
+    Real distance = 0;
+    if (!point_shape_distance(point, shape, xf, reach, p, n, distance) || !(n.dot(found) > kSameFacing)) return false;
+    normal = n;
+    surface = p;
+    return true;
+}
 
 void ParticleRows::add_whole_body(const RigidSystem& sys, std::uint32_t slot, const SoftBody& b, Real h) {
     const Real inv_h = 1 / h;
@@ -194,8 +208,15 @@ void ParticleRows::build(RigidSystem& sys, Real h) {
                 back = sys.slot_transform(c.owner) * c.xf.inverse();
             }
             row.n = back.q * pl.normal;
-            tangent_basis(row.n, row.t1, row.t2);
             row.point = back.apply(pl.point);
+            // A round body: the normal where the particle is now (round_body_normal).
+            Vec3 surface, normal;
+            if (round_body_normal(*c.shape, back * c.xf, b.p.x[i], row.n, 2 * r + 2 * (b.p.x_next[i] - b.p.x[i]).norm(),
+                                  normal, surface)) {
+                row.n = normal;
+                row.point = surface;
+            }
+            tangent_basis(row.n, row.t1, row.t2);
             // The body is pushed along the normal through the particle where both are now (not at the
             // surface point under its predicted end-of-step position): the two impulses then share one
             // line of action at the configuration the positions are integrated from, and angular momentum

@@ -38,6 +38,15 @@
 
 namespace sinew {
 
+/// A round body's (sphere, capsule) outward normal and surface point under a particle at `point`, if it
+/// faces within about 25 degrees of `found` (the normal a contact was found with, at the particle's
+/// predicted position): a contact pushes a round body through its axis, and the found normal, which
+/// misses it by the step's sliding, would spin it with no friction at all (a frictionless ball on
+/// ball-on-trampoline's cloth spun up to 3.5 rad/s in 20 s). False for other shapes (flat faces keep
+/// their plane; at an edge the feature may change within the step), or beyond `reach` of the surface.
+bool round_body_normal(const Shape& shape, const Transform& xf, const Vec3& point, const Vec3& found, Real reach,
+                       Vec3& normal, Vec3& surface);
+
 /// What one soft-rigid contact did to the rigid body during a step (the two-way rows, or a soft
 /// contact's reaction sent back): reported to the world and the C API's contact events.
 struct CouplingImpulse {

@@ -7,6 +7,8 @@
 #include <string>
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
 
 #include "engine/world/scene.hpp"
 
@@ -324,6 +326,178 @@ TEST_CASE("ball-on-trampoline: two-way holds the ball that falls through under o
     // Still in the cloth, above its lowest point, having been stopped well above the ground.
     CHECK(ball_y > cloth_y);
     CHECK(ball_y > Real(0.3));
+}
+
+namespace {
+
+// The static rest of ball-on-trampoline's ball of mass `mass` (kg), solved directly and independently of
+// the engine's solvers: the potential energy of the cloth's springs (sum k (l - L)^2 / 2), of gravity on
+// its nodes and on the ball, and of a contact penalty kappa (R - |x_i - c|)^2 / 2 between each node and
+// the ball's centre c = (bx, Y, bz) (R = ball radius + the cloth's thickness, the distance the coupling's
+// rows keep), minimised over the free nodes and the ball's height Y (the ball held sideways where the
+// run left it, as friction holds it). Levenberg-Marquardt on the springs' positive semi-definite
+// Hessians (the transverse term of a compressed spring dropped, as in Choi and Ko 2002) with a line
+// search, starting from the flat cloth; kappa raised 1e5, 1e6, 1e7 N/m until Y no longer moves (the
+// nodes then sink into the ball by under a micrometre). `gradient` receives the final gradient's norm.
+double trampoline_static_rest(const SoftBody& b, const std::vector<Vec3>& flat, double bx, double bz, double mass,
+                              double radius, double& gradient) {
+    using Eigen::Vector3d;
+    const int n = int(flat.size());
+    std::vector<Vector3d> x(flat.size());
+    for (int i = 0; i < n; ++i) x[std::size_t(i)] = flat[std::size_t(i)].cast<double>();
+    std::vector<int> dof(flat.size(), -1);
+    int dofs = 0;
+    for (int i = 0; i < n; ++i)
+        if (b.p.inv_mass[std::size_t(i)] > 0) dof[std::size_t(i)] = dofs, dofs += 3;
+    const int ball = dofs++;
+    const double g = 9.81;
+    double y = 1 + radius;  // touching the flat cloth
+    const auto energy = [&](const std::vector<Vector3d>& xs, double yc, double kappa) {
+        double e = mass * g * yc;
+        for (const Link& l : b.links) {
+            const double stretch = (xs[l.a] - xs[l.b]).norm() - double(l.rest);
+            e += 0.5 * double(l.stiffness) * stretch * stretch;
+        }
+        for (int i = 0; i < n; ++i) {
+            e += double(b.p.mass[std::size_t(i)]) * g * xs[std::size_t(i)].y();
+            const double depth = radius - (xs[std::size_t(i)] - Vector3d(bx, yc, bz)).norm();
+            if (depth > 0) e += 0.5 * kappa * depth * depth;
+        }
+        return e;
+    };
+    for (double kappa = 1e5; kappa < 2e7; kappa *= 10) {
+        double mu = 1e-2;  // Levenberg-Marquardt's weight on the masses, in units of m / (0.01 s)^2
+        for (int it = 0; it < 1000; ++it) {
+            Eigen::VectorXd grad = Eigen::VectorXd::Zero(dofs);
+            std::vector<Eigen::Triplet<double>> h;
+            const auto add = [&](int r, int c, const Eigen::Matrix3d& m) {
+                for (int a = 0; a < 3; ++a)
+                    for (int e = 0; e < 3; ++e) h.emplace_back(r + a, c + e, m(a, e));
+            };
+            for (const Link& l : b.links) {
+                const Vector3d d = x[l.a] - x[l.b];
+                const double len = d.norm(), k = double(l.stiffness);
+                const Vector3d u = d / len, f = k * (len - double(l.rest)) * u;
+                const Eigen::Matrix3d hl = k * u * u.transpose() + k * std::max(0.0, 1 - double(l.rest) / len) *
+                                                                     (Eigen::Matrix3d::Identity() - u * u.transpose());
+                const int da = dof[l.a], db = dof[l.b];
+                if (da >= 0) grad.segment<3>(da) += f, add(da, da, hl);
+                if (db >= 0) grad.segment<3>(db) -= f, add(db, db, hl);
+                if (da >= 0 && db >= 0) add(da, db, -hl), add(db, da, -hl);
+            }
+            grad[ball] += mass * g;
+            for (int i = 0; i < n; ++i) {
+                const int di = dof[std::size_t(i)];
+                if (di < 0) continue;
+                grad[di + 1] += double(b.p.mass[std::size_t(i)]) * g;
+                const Vector3d d = x[std::size_t(i)] - Vector3d(bx, y, bz);
+                const double depth = radius - d.norm();
+                if (depth <= 0) continue;
+                const Vector3d nn = d.normalized();
+                grad.segment<3>(di) -= kappa * depth * nn;
+                grad[ball] += kappa * depth * nn.y();
+                add(di, di, kappa * nn * nn.transpose());
+                for (int a = 0; a < 3; ++a) {
+                    h.emplace_back(di + a, ball, -kappa * nn[a] * nn.y());
+                    h.emplace_back(ball, di + a, -kappa * nn[a] * nn.y());
+                }
+                h.emplace_back(ball, ball, kappa * nn.y() * nn.y());
+            }
+            gradient = grad.norm();
+            if (gradient < 1e-6) break;
+            for (int i = 0; i < n; ++i)
+                for (int a = 0; a < 3 && dof[std::size_t(i)] >= 0; ++a)
+                    h.emplace_back(dof[std::size_t(i)] + a, dof[std::size_t(i)] + a, mu * double(b.p.mass[std::size_t(i)]) * 1e4);
+            h.emplace_back(ball, ball, mu * mass * 1e4);
+            Eigen::SparseMatrix<double> a(dofs, dofs);
+            a.setFromTriplets(h.begin(), h.end());
+            Eigen::VectorXd step = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>(a).solve(-grad);
+            const double largest = step.cwiseAbs().maxCoeff();
+            if (largest > 0.01) step *= 0.01 / largest;  // no step carries the ball through the cloth
+            const double before = energy(x, y, kappa);
+            double alpha = 1;
+            bool moved = false;
+            for (int tries = 0; tries < 30 && !moved; ++tries, alpha *= 0.5) {
+                std::vector<Vector3d> xn = x;
+                for (int i = 0; i < n; ++i)
+                    if (dof[std::size_t(i)] >= 0) xn[std::size_t(i)] += alpha * step.segment<3>(dof[std::size_t(i)]);
+                const double yn = y + alpha * step[ball];
+                if (energy(xn, yn, kappa) < before) x = std::move(xn), y = yn, moved = true;
+            }
+            if (!moved) break;
+            mu = alpha == 0.5 ? std::max(mu * 0.5, 1e-9) : mu * 2;  // the full step taken: trust the model more
+        }
+    }
+    return y;
+}
+
+}  // namespace
+
+TEST_CASE("ball-on-trampoline: the ball comes to rest at the converged static solve's depth, its weight carried", "[coupling]") {
+    // Two-way, 10 s: the ball settles where the cloth's springs, gravity and the contacts balance. The
+    // static solve above puts it 0.2886-0.2889 m into the cloth (its bottom below the pinned corners'
+    // plane, with the ball held where the run left it). Measured in float: soft step 0.75%, split
+    // impulses 1.05%, Newton 0.8% deeper (friction holds the nodes it dragged; frictionless, the ball
+    // sleeps 0.12% above the static depth); the issue asks for 2%. Over the last second the contacts the
+    // cloth reports carry the ball's weight within 0.1%.
+    const SceneDesc scene = parse_scene_file(scene_path("ball-on-trampoline.json"));
+    for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
+        INFO(rigid_solver_name(solver));
+        SceneDesc d = scene;
+        d.settings.rigid.solver = solver;
+        d.settings.rigid.sleeping = false;
+        std::vector<BodyId> ids;
+        auto w = build_world(d, &ids);
+        double lift = 0;
+        for (int k = 0; k < 600; ++k) {
+            w->step();
+            if (k < 540) continue;
+            for (const CouplingImpulse& c : w->coupling().impulses()) lift += double(c.impulse.y());
+        }
+        const double weight = 9.81 * double(w->rigid().mass(ids[1]));
+        CHECK(lift == Approx(weight).epsilon(0.01));  // 60 steps' impulses over one second
+        const Vec3 at = w->rigid().transform(ids[1]).p;
+        const SoftBody& cloth = w->soft().body(w->soft().bodies()[0]);
+        double gradient = 1;
+        const double radius = 0.2 + double(cloth.def.thickness);
+        const double y = trampoline_static_rest(cloth, d.soft_bodies[0].def.positions, double(at.x()), double(at.z()),
+                                                double(w->rigid().mass(ids[1])), radius, gradient);
+        REQUIRE(gradient < 1e-6);
+        const double sink = 1 - (double(at.y()) - 0.2), static_sink_depth = 1 - (y - 0.2);
+        CHECK(static_sink_depth == Approx(0.2888).epsilon(0.002));
+        CHECK(sink == Approx(static_sink_depth).epsilon(0.02));
+    }
+}
+
+TEST_CASE("ball-on-trampoline: a frictionless ball takes no spin from the cloth and sleeps on it", "[coupling]") {
+    // Without friction a contact pushes a sphere through its centre: its spin must stay zero. The rows
+    // and the implicit solve's shares take the sphere's normal where the particle is at the start of the
+    // step (round_body_normal); with the normal found at the predicted positions the ball spun up to 0.4
+    // rad/s in 10 s and 3.5 in 20 s, and never slept. Measured in float: 9.4e-4 rad/s at most (what is
+    // left comes from the contact pass's pushes, still along the found normal), asleep within 12 s with
+    // the cloth; the bound is ten times that, forty times under the old spin at 10 s.
+    SceneDesc d = parse_scene_file(scene_path("ball-on-trampoline.json"));
+    d.bodies[1].def.material.friction = 0;
+    d.soft_bodies[0].def.friction = 0;
+    std::vector<BodyId> ids;
+    auto w = build_world(d, &ids);
+    Real spin = 0;
+    for (int k = 0; k < 720; ++k) {
+        w->step();
+        spin = std::max(spin, w->rigid().angular_velocity(ids[1]).norm());
+    }
+    CHECK(spin < Real(0.01));
+    CHECK_FALSE(w->rigid().awake(ids[1]));
+    CHECK_FALSE(w->soft().awake(w->soft().bodies()[0]));
+    // Asleep where it rests: at the static solve's depth within the issue's 2% (float 0.12% above it,
+    // double 1.7% below: it fell asleep with the cloth still settling by millimetres).
+    const Vec3 at = w->rigid().transform(ids[1]).p;
+    const SoftBody& cloth = w->soft().body(w->soft().bodies()[0]);
+    double gradient = 1;
+    const double y = trampoline_static_rest(cloth, d.soft_bodies[0].def.positions, double(at.x()), double(at.z()),
+                                            double(w->rigid().mass(ids[1])), 0.2 + double(cloth.def.thickness), gradient);
+    REQUIRE(gradient < 1e-6);
+    CHECK(1 - (double(at.y()) - 0.2) == Approx(1 - (y - 0.2)).epsilon(0.02));
 }
 
 TEST_CASE("coupling settings: bad input is refused with the field named, nothing changed", "[coupling][errors]") {
