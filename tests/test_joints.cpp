@@ -804,11 +804,12 @@ TEST_CASE("a hinge motor far beyond its arm's inertia blows up, the step names t
     CHECK(faults >= 1);
 }
 
-TEST_CASE("a 20-link chain with a 100:1 end mass stays together under the soft step, split impulses and Newton", "[joints][chain]") {
+TEST_CASE("a 20-link chain with a 100:1 end mass stays together under the soft step (within 1 cm), split impulses and Newton", "[joints][chain]") {
     // demos/scenes/hard-chain.json: 1 kg links (0.5 m), a 100 kg end cube, one chain hanging at rest and
     // one released from horizontal, 5 s. Largest distance between a joint's two anchor points over the
-    // run. Soft step: 14.5 mm, the stretch of its 120 Hz soft joints under 3,000 N (docs/rigid-solvers.md,
-    // known limits; 2 cm catches a change). Split impulses and Newton bound the joint's mass ratio to stay
+    // run. Soft step: 3.3 mm since its joints' point blocks are solved together and exactly after the
+    // sweeps, at 150 Hz (rigid/joint_point_solve.hpp; swept alone at 120 Hz they stretched 14.5 mm under
+    // the swing's 3,000 N); the issue asks for 1 cm. Split impulses and Newton bound the joint's mass ratio to stay
     // together (before: metres, coming apart): 43 and 158 mm in float and double; 0.25 m. Baumgarte is
     // not asserted: with the same bound it holds in float (134 mm) and comes apart in double (7 m), at
     // the edge of its stability (docs/rigid-solvers.md, known limits).
@@ -829,6 +830,6 @@ TEST_CASE("a 20-link chain with a 100:1 end mass stays together under the soft s
         }
         INFO(rigid_solver_name(kind));
         CHECK(world->faults().empty());
-        CHECK(worst < (kind == RigidSolverKind::SoftStep ? 0.02 : 0.25));
+        CHECK(worst < (kind == RigidSolverKind::SoftStep ? 0.01 : 0.25));
     }
 }

@@ -1,0 +1,218 @@
+// Exact solve of the joints' point blocks (rigid/joint_point_solve.hpp).
+#include "rigid/joint_point_solve.hpp"
+
+#include <algorithm>
+
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+
+namespace sinew::joint_detail {
+
+namespace {
+
+using Mat3d = Eigen::Matrix3d;
+using Vec3d = Eigen::Vector3d;
+
+Mat3d skew_d(const Vec3d& r) {
+    Mat3d s;
+    s << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+    return s;
+}
+
+// One joint's end on a movable body: the joint's place in the solve and its side (-1: A, +1: B).
+struct End {
+    std::uint32_t joint;
+    double sign;
+};
+
+// A 3x3 block of the matrix contributed by one body to the pair (joint of end i, joint of end j): the
+// nine places of its values in the compressed storage, row-major.
+struct Term {
+    std::uint32_t body_end_i, body_end_j;  // indices into ends
+    std::uint32_t body;
+    int value[9];
+};
+
+}  // namespace
+
+struct JointPointSolve::Impl {
+    std::vector<std::uint32_t> slots;        // joint slots, in matrix order
+    std::vector<std::uint32_t> bodies;       // movable bodies with at least one end
+    std::vector<std::uint32_t> body_first;   // per body in `bodies`: its first end (CSR), size bodies + 1
+    std::vector<End> ends;
+    std::vector<Term> terms;
+    std::vector<int> diagonal;               // per joint: the nine value places of its own block
+    std::vector<std::uint32_t> body_place;   // scratch: body slot -> index in `bodies` (or ~0u)
+    Eigen::SparseMatrix<double> a;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+    bool factorable = false;
+    Eigen::VectorXd rhs, dl;
+    std::vector<Vec3d> ra, rb;               // per joint, this pass's arms
+    std::vector<Mat3d> own;                  // per joint, its block K_k
+    std::vector<double> inv_mass;            // per body in `bodies`
+    std::vector<Mat3d> inv_inertia;
+};
+
+JointPointSolve::JointPointSolve() : m_(std::make_unique<Impl>()) {}
+JointPointSolve::~JointPointSolve() = default;
+
+const std::vector<std::uint32_t>& JointPointSolve::slots() const { return m_->slots; }
+
+void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows,
+                              const std::vector<std::uint32_t>& active, std::size_t body_slots) {
+    Impl& m = *m_;
+    m.slots.clear();
+    m.bodies.clear();
+    m.terms.clear();
+    m.factorable = false;
+    for (std::uint32_t s : active)
+        if (has_point_block(joints[s].def.type)) m.slots.push_back(s);
+    // A single joint is solved exactly by its own block already.
+    if (m.slots.size() < 2) {
+        m.slots.clear();
+        return;
+    }
+    const std::size_t n = m.slots.size();
+    // Movable bodies and their ends, grouped by body (counting sort).
+    m.body_place.assign(body_slots, ~0u);
+    std::vector<std::uint32_t> count;
+    for (std::uint32_t k = 0; k < n; ++k) {
+        const JointRows& r = rows[m.slots[k]];
+        for (int side = 0; side < 2; ++side) {
+            const std::uint32_t b = side ? r.b : r.a;
+            if ((side ? r.mb : r.ma) == 0) continue;
+            if (m.body_place[b] == ~0u) {
+                m.body_place[b] = std::uint32_t(m.bodies.size());
+                m.bodies.push_back(b);
+                count.push_back(0);
+            }
+            ++count[m.body_place[b]];
+        }
+    }
+    m.body_first.assign(m.bodies.size() + 1, 0);
+    for (std::size_t i = 0; i < m.bodies.size(); ++i) m.body_first[i + 1] = m.body_first[i] + count[i];
+    m.ends.resize(m.body_first.back());
+    std::fill(count.begin(), count.end(), 0u);
+    for (std::uint32_t k = 0; k < n; ++k) {
+        const JointRows& r = rows[m.slots[k]];
+        for (int side = 0; side < 2; ++side) {
+            const std::uint32_t b = side ? r.b : r.a;
+            if ((side ? r.mb : r.ma) == 0) continue;
+            const std::uint32_t place = m.body_place[b];
+            m.ends[m.body_first[place] + count[place]++] = {k, side ? 1.0 : -1.0};
+        }
+    }
+    // The pattern: every pair of joints sharing a movable body, their 3x3 blocks, and each joint's own.
+    std::vector<Eigen::Triplet<double>> pattern;
+    const auto add_block = [&](std::uint32_t k, std::uint32_t l) {
+        for (int u = 0; u < 3; ++u)
+            for (int v = 0; v < 3; ++v) pattern.emplace_back(int(3 * k) + u, int(3 * l) + v, 0.0);
+    };
+    for (std::uint32_t k = 0; k < n; ++k) add_block(k, k);
+    for (std::size_t p = 0; p < m.bodies.size(); ++p)
+        for (std::uint32_t i = m.body_first[p]; i < m.body_first[p + 1]; ++i)
+            for (std::uint32_t j = m.body_first[p]; j < m.body_first[p + 1]; ++j)
+                if (m.ends[i].joint != m.ends[j].joint) add_block(m.ends[i].joint, m.ends[j].joint);
+    const auto dim = Eigen::Index(3 * n);
+    m.a.resize(dim, dim);
+    m.a.setFromTriplets(pattern.begin(), pattern.end());  // duplicates summed: zeros stay zeros
+    m.a.makeCompressed();
+    // Where each block's values live.
+    const auto place = [&](std::uint32_t k, std::uint32_t l, int* out) {
+        for (int u = 0; u < 3; ++u)
+            for (int v = 0; v < 3; ++v) {
+                const Eigen::Index row = Eigen::Index(3 * k) + u, col = Eigen::Index(3 * l) + v;
+                const int* inner = m.a.innerIndexPtr();
+                const int begin = m.a.outerIndexPtr()[col], end = m.a.outerIndexPtr()[col + 1];
+                out[3 * u + v] = int(std::lower_bound(inner + begin, inner + end, int(row)) - inner);
+            }
+    };
+    m.diagonal.resize(9 * n);
+    for (std::uint32_t k = 0; k < n; ++k) place(k, k, &m.diagonal[9 * k]);
+    for (std::size_t p = 0; p < m.bodies.size(); ++p)
+        for (std::uint32_t i = m.body_first[p]; i < m.body_first[p + 1]; ++i)
+            for (std::uint32_t j = m.body_first[p]; j < m.body_first[p + 1]; ++j) {
+                Term t;
+                t.body_end_i = i;
+                t.body_end_j = j;
+                t.body = std::uint32_t(p);
+                place(m.ends[i].joint, m.ends[j].joint, t.value);
+                m.terms.push_back(t);
+            }
+    m.ldlt.analyzePattern(m.a);
+    m.factorable = m.ldlt.info() == Eigen::Success;
+    m.rhs.resize(dim);
+    m.dl.resize(dim);
+    m.ra.resize(n);
+    m.rb.resize(n);
+    m.own.resize(n);
+    m.inv_mass.resize(m.bodies.size());
+    m.inv_inertia.resize(m.bodies.size());
+    for (std::size_t p = 0; p < m.bodies.size(); ++p) {
+        // Any end's rows carry the body's inverse mass and world inverse inertia for this step.
+        const End& e = m.ends[m.body_first[p]];
+        const JointRows& r = rows[m.slots[e.joint]];
+        const bool is_a = e.sign < 0;
+        m.inv_mass[p] = double(is_a ? r.ma : r.mb);
+        m.inv_inertia[p] = (is_a ? r.ia : r.ib).cast<double>();
+    }
+}
+
+void JointPointSolve::solve(std::vector<JointData>& joints, const std::vector<JointRows>& rows,
+                            const RigidSystem::State& st, RowPass& pass, const Softness& bias) {
+    Impl& m = *m_;
+    const std::size_t n = m.slots.size();
+    if (n == 0 || !m.factorable) return;
+    // gamma = impulse_scale / mass_scale: the soft rows' compliance relative to their own block.
+    const double gamma = bias.mass_scale > 0 ? double(bias.impulse_scale) / double(bias.mass_scale) : 0.0;
+    // Arms, errors and relative velocities at the anchors, before any impulse of this solve.
+    for (std::uint32_t k = 0; k < n; ++k) {
+        const JointData& j = joints[m.slots[k]];
+        const JointRows& r = rows[m.slots[k]];
+        const PairPose pose(st, j, r);
+        const PairVelocity p(pass, r);
+        m.ra[k] = pose.ra.cast<double>();
+        m.rb[k] = pose.rb.cast<double>();
+        const Vec3 cdot = p.vb + p.wb.cross(pose.rb) - p.va - p.wa.cross(pose.ra);
+        const Vec3 target = cdot + bias.bias_rate * bias.cap(pose.d);
+        m.rhs.segment<3>(Eigen::Index(3 * k)) = -target.cast<double>();
+        m.own[k].setZero();
+    }
+    // J M^-1 J^T, written in place; each joint's own block K_k kept for the compliance.
+    double* values = m.a.valuePtr();
+    std::fill(values, values + m.a.nonZeros(), 0.0);
+    for (const Term& t : m.terms) {
+        const End& ei = m.ends[t.body_end_i];
+        const End& ej = m.ends[t.body_end_j];
+        const Vec3d& arm_i = ei.sign < 0 ? m.ra[ei.joint] : m.rb[ei.joint];
+        const Vec3d& arm_j = ej.sign < 0 ? m.ra[ej.joint] : m.rb[ej.joint];
+        const Mat3d block = ei.sign * ej.sign *
+                            (m.inv_mass[t.body] * Mat3d::Identity() - skew_d(arm_i) * m.inv_inertia[t.body] * skew_d(arm_j));
+        for (int u = 0; u < 3; ++u)
+            for (int v = 0; v < 3; ++v) values[t.value[3 * u + v]] += block(u, v);
+        if (ei.joint == ej.joint) m.own[ei.joint] += block;
+    }
+    // The compliance, plus a ridge of 1e-9 of each block that keeps redundant joints (two at one point,
+    // a closed loop) factorable without changing a well-posed solve.
+    for (std::uint32_t k = 0; k < n; ++k) {
+        const Mat3d extra = (gamma + 1e-9) * m.own[k];
+        for (int u = 0; u < 3; ++u)
+            for (int v = 0; v < 3; ++v) values[m.diagonal[9 * k + 3 * u + v]] += extra(u, v);
+        if (gamma > 0) m.rhs.segment<3>(Eigen::Index(3 * k)) -= gamma * m.own[k] * joints[m.slots[k]].impulses.point.cast<double>();
+    }
+    m.ldlt.factorize(m.a);
+    if (m.ldlt.info() != Eigen::Success) return;  // singular (cannot be with one movable body per joint)
+    m.dl = m.ldlt.solve(m.rhs);
+    if (!m.dl.allFinite()) return;
+    for (std::uint32_t k = 0; k < n; ++k) {
+        JointData& j = joints[m.slots[k]];
+        const JointRows& r = rows[m.slots[k]];
+        const Vec3 impulse = m.dl.segment<3>(Eigen::Index(3 * k)).cast<Real>();
+        j.impulses.point += impulse;
+        PairVelocity p(pass, r);
+        apply_linear(p, r, m.ra[k].cast<Real>(), m.rb[k].cast<Real>(), impulse);
+        p.store(pass, r);
+    }
+}
+
+}  // namespace sinew::joint_detail
