@@ -10,6 +10,9 @@ namespace sinew::joint_detail {
 
 namespace {
 
+// Joints on one movable body past which the exact solve is left out (see prepare()).
+constexpr std::uint32_t kMaxJointsPerBody = 32;
+
 using Mat3d = Eigen::Matrix3d;
 using Vec3d = Eigen::Vector3d;
 
@@ -89,6 +92,14 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
             ++count[m.body_place[b]];
         }
     }
+    // A body holding many joints couples them all: its block of the matrix is dense (a hub of 500 joints
+    // would factor a 1,500-row dense matrix every pass). Past kMaxJointsPerBody the sweeps act alone.
+    for (std::uint32_t c : count)
+        if (c > kMaxJointsPerBody) {
+            m.slots.clear();
+            m.bodies.clear();
+            return;
+        }
     m.body_first.assign(m.bodies.size() + 1, 0);
     for (std::size_t i = 0; i < m.bodies.size(); ++i) m.body_first[i + 1] = m.body_first[i] + count[i];
     m.ends.resize(m.body_first.back());

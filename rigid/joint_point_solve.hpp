@@ -37,7 +37,8 @@ public:
 
     /// Once per step, after the rows are prepared: the joints among `active` (slots) that have a point
     /// block, their movable bodies (inverse mass > 0) and the matrix's pattern. `body_slots` is the
-    /// number of body slots.
+    /// number of body slots. None when fewer than two joints have a point block, or when a movable body
+    /// holds more than 32 of them (its block would be dense: the sweeps then act alone).
     void prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows,
                  const std::vector<std::uint32_t>& active, std::size_t body_slots);
     /// The joint slots in the solve, in matrix order (empty: solve() does nothing). The caller must not
