@@ -2,6 +2,7 @@
 #include "rigid/joint_point_solve.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -68,13 +69,24 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
     m.bodies.clear();
     m.terms.clear();
     m.factorable = false;
-    for (std::uint32_t s : active)
-        if (has_point_block(joints[s].def.type)) m.slots.push_back(s);
-    // A single joint is solved exactly by its own block already.
-    if (m.slots.size() < 2) {
-        m.slots.clear();
-        return;
+    // A body holding many joints couples them all: its block of the matrix is dense (a hub of 500 joints
+    // would factor a 1,500-row dense matrix every pass). The joints on a body past kMaxJointsPerBody are
+    // left to the sweeps alone; the rest are solved.
+    m.body_place.assign(body_slots, 0);  // scratch: joints per movable body
+    for (std::uint32_t s : active) {
+        if (!has_point_block(joints[s].def.type)) continue;
+        const JointRows& r = rows[s];
+        if (r.ma != 0) ++m.body_place[r.a];
+        if (r.mb != 0) ++m.body_place[r.b];
     }
+    for (std::uint32_t s : active) {
+        if (!has_point_block(joints[s].def.type)) continue;
+        const JointRows& r = rows[s];
+        if ((r.ma != 0 && m.body_place[r.a] > kMaxJointsPerBody) || (r.mb != 0 && m.body_place[r.b] > kMaxJointsPerBody))
+            continue;
+        m.slots.push_back(s);
+    }
+    if (m.slots.empty()) return;
     const std::size_t n = m.slots.size();
     // Movable bodies and their ends, grouped by body (counting sort).
     m.body_place.assign(body_slots, ~0u);
@@ -92,14 +104,6 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
             ++count[m.body_place[b]];
         }
     }
-    // A body holding many joints couples them all: its block of the matrix is dense (a hub of 500 joints
-    // would factor a 1,500-row dense matrix every pass). Past kMaxJointsPerBody the sweeps act alone.
-    for (std::uint32_t c : count)
-        if (c > kMaxJointsPerBody) {
-            m.slots.clear();
-            m.bodies.clear();
-            return;
-        }
     m.body_first.assign(m.bodies.size() + 1, 0);
     for (std::size_t i = 0; i < m.bodies.size(); ++i) m.body_first[i + 1] = m.body_first[i] + count[i];
     m.ends.resize(m.body_first.back());
@@ -203,10 +207,14 @@ void JointPointSolve::solve(std::vector<JointData>& joints, const std::vector<Jo
             for (int v = 0; v < 3; ++v) values[t.value[3 * u + v]] += block(u, v);
         if (ei.joint == ej.joint) m.own[ei.joint] += block;
     }
-    // The compliance, plus a ridge of 1e-9 of each block that keeps redundant joints (two at one point,
-    // a closed loop) factorable without changing a well-posed solve.
+    // The compliance, plus a ridge that keeps redundant joints (a door on two hinges has no stiffness
+    // along the line through both anchors; two joints at one point; a closed loop) factorable. It is
+    // set at Real's resolution: the relative velocity along such a line is rounding noise, which a
+    // smaller ridge turned into impulses of kilonewton-seconds that the reaction forces (and breakable
+    // joints) saw; a well-posed solve moves by the same relative amount.
+    const double ridge = 100 * double(std::numeric_limits<Real>::epsilon());
     for (std::uint32_t k = 0; k < n; ++k) {
-        const Mat3d extra = (gamma + 1e-9) * m.own[k];
+        const Mat3d extra = (gamma + ridge) * m.own[k];
         for (int u = 0; u < 3; ++u)
             for (int v = 0; v < 3; ++v) values[m.diagonal[9 * k + 3 * u + v]] += extra(u, v);
         if (gamma > 0) m.rhs.segment<3>(Eigen::Index(3 * k)) -= gamma * m.own[k] * joints[m.slots[k]].impulses.point.cast<double>();

@@ -6,15 +6,16 @@
 // rows are stable at any stiffness (Catto 2011: a soft constraint is an implicit spring), so the point
 // blocks can be much stiffer than the other rows.
 //
-// The exact solve is the fixed point of the block sweeps: for every joint k,
+// The exact solve is the fixed point of block sweeps at the point blocks' own softness: for every joint k,
 //     mass_scale K_k^-1 (C-dot_k + bias_rate C_k) + impulse_scale (Lambda_k + dLambda_k) = 0
 // with C-dot_k after all the dLambda are applied, i.e. with gamma = impulse_scale / mass_scale,
 //     (J M^-1 J^T + gamma blockdiag(K)) dLambda = -(J v + bias_rate C) - gamma blockdiag(K) Lambda,
 // where K_k, the joint's own 3x3 block of J M^-1 J^T, is (m_A + m_B) 1 - [r_A]x I_A^-1 [r_A]x - [r_B]x
 // I_B^-1 [r_B]x. Joints couple through the bodies they share; a chain's matrix is block tridiagonal and
 // its sparse LDL^T (Eigen's SimplicialLDLT, pattern analysed once per step) costs O(n). Solved in double
-// whatever Real is: the diagonal of a 1:100 chain spans four orders of magnitude. No allocation per pass:
-// the matrix's values are written in place through indices found when the pattern is built.
+// whatever Real is: the diagonal of a 1:100 chain spans four orders of magnitude. The matrix's values are
+// written in place through indices found when the pattern is built; Eigen's factorize() still allocates
+// its ordered copy of the matrix each pass (open: a factorisation on a fixed, pre-ordered pattern).
 #pragma once
 
 #include <cstdint>
@@ -37,8 +38,8 @@ public:
 
     /// Once per step, after the rows are prepared: the joints among `active` (slots) that have a point
     /// block, their movable bodies (inverse mass > 0) and the matrix's pattern. `body_slots` is the
-    /// number of body slots. None when fewer than two joints have a point block, or when a movable body
-    /// holds more than 32 of them (its block would be dense: the sweeps then act alone).
+    /// number of body slots. The joints on a movable body that holds more than 32 of them are left out
+    /// (its block would be dense): the sweeps alone hold those.
     void prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows,
                  const std::vector<std::uint32_t>& active, std::size_t body_slots);
     /// The joint slots in the solve, in matrix order (empty: solve() does nothing). The caller must not

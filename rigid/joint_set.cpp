@@ -47,6 +47,7 @@ struct JointSet::Impl {
     std::vector<Vec3> pv, pw;             // pseudo-velocities of the projection pass, by body slot
     JointPointSolve points;               // soft step: the point blocks solved together after the sweeps
     const std::vector<std::uint32_t> none;  // no joints, for the other solvers
+    std::vector<std::uint32_t> point_generations;  // of the joints in `points`, as prepared
     Softness point_bias;                  // of the point blocks in that solve's biased passes
 
     // Sorted (min slot, max slot) keys of joints that filter contacts, rebuilt on the first query after
@@ -417,7 +418,10 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     m.h = h;
     m.active.clear();
     m.moving.clear();
-    if (m.slots.count() == 0) return;  // nothing to prepare (and no per-body scratch to clear)
+    if (m.slots.count() == 0) {  // nothing to prepare (and no per-body scratch to clear)
+        m.points.prepare(m.joints, m.rows, m.none, 0);
+        return;
+    }
     // How position error is removed this step:
     // - Soft (a sub-stepping solver asked for soft joints): Catto 2011 soft rows in its biased passes.
     // - Projection (sequential impulses with split impulses and warm starting, the default): the velocity
@@ -448,7 +452,7 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     m.projection_bias = Softness{1 / h, 1, 0, kMaxProjection};
     // Solved exactly, the point blocks are stable at any stiffness (rigid/joint_point_solve.hpp); they
     // take the joints' cap, half the sub-step rate, where the sweeps needed Box2D v3's twice the contact
-    // stiffness (a 20-link chain with a 100:1 end: 14.5 mm of stretch at 120 Hz swept, 3.3 mm at 150 Hz
+    // stiffness (a 20-link chain with a 100:1 end: 14.5 mm of stretch at 120 Hz swept, 3.4 mm at 150 Hz
     // solved exactly; 1.3 mm at 300 Hz, 0.9 mm at 600 Hz).
     m.point_bias = make_soft(kPointHertzPerRate / h, softness.damping_ratio, h);
     m.mark.assign(st.x.size(), 0);
@@ -498,6 +502,8 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     // alone (not tried with the exact solve): their rows see bounded mass ratios (bound_mass_ratio), which
     // the exact solve would take as the bodies' masses.
     m.points.prepare(m.joints, m.rows, m.correction == Impl::Correction::Soft ? m.active : m.none, st.x.size());
+    m.point_generations.clear();
+    for (std::uint32_t s : m.points.slots()) m.point_generations.push_back(m.slots.generation(s));
     if (m.correction == Impl::Correction::Projection) {
         m.pv.assign(st.x.size(), Vec3::Zero());
         m.pw.assign(st.x.size(), Vec3::Zero());
@@ -547,8 +553,8 @@ void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use
             if (m.slots.alive(s)) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, pass);
     const std::vector<std::uint32_t>& exact = m.points.slots();
     if (exact.empty()) return;
-    for (std::uint32_t s : exact)
-        if (!m.slots.alive(s)) return;  // a joint destroyed within the step: the sweeps alone
+    for (std::size_t k = 0; k < exact.size(); ++k)  // a joint destroyed (or its slot reused) within the step:
+        if (!m.slots.alive(exact[k]) || m.slots.generation(exact[k]) != m.point_generations[k]) return;  // sweeps alone
     m.points.solve(m.joints, m.rows, st, pass, use_bias ? m.point_bias : Softness{});
 }
 

@@ -813,7 +813,6 @@ TEST_CASE("soft step: a pendulum held by two ball joints at one pivot swings as 
     // their long axes (to 1,900 rad/s) and the loop opens by 0.4 m, with or without the exact solve: the
     // world inverse inertia is the step's, stale within the sub-steps (docs/rigid-solvers.md, known limits).
     const Real h = Real(1) / 60;
-    const Vec3 bob_pos(1, 0, 0);
     Vec3 ends[2];
     for (int doubled = 0; doubled < 2; ++doubled) {
         World world(settings_for(kSoftStep, h, kGravity));
@@ -821,7 +820,7 @@ TEST_CASE("soft step: a pendulum held by two ball joints at one pivot swings as 
         const BodyId pivot = add_body(rs, BodyType::Static, make_sphere(Real(0.02)), Vec3::Zero());
         const BodyId bob = add_body(rs, BodyType::Dynamic, make_box(Vec3(Real(0.5), Real(0.05), Real(0.05))),
                                     Vec3(Real(0.5), 0, 0), 1);
-        // A second pendulum on its own pivot, so the solve has at least two joints when the first is single.
+        // A second pendulum on its own pivot beside it, in the same solve.
         const BodyId other = add_body(rs, BodyType::Dynamic, make_sphere(Real(0.05)), Vec3(0, 0, 3), 1);
         for (int k = 0; k <= doubled; ++k) {
             JointDef jd;
@@ -881,10 +880,53 @@ TEST_CASE("soft step: a pendulum held by two ball joints at one pivot swings as 
     CHECK(worst < Real(5e-3));
 }
 
+TEST_CASE("soft step: a door on two hinges reports reactions that carry its weight, with no spurious force along the hinge line", "[joints]") {
+    // Two hinges on one axis are redundant: the exact point solve has no stiffness along the line through
+    // both anchors, where the relative velocity is rounding noise; its ridge is at Real's resolution so
+    // that noise cannot become a large impulse that the reaction forces (and a breakable joint) would
+    // see. A 20 kg door (1 m x 2 m) hung on hinges at y = +-0.8 m of its edge, turning at 1 rad/s about
+    // them: the hinges' vertical reactions sum to its weight (196 N) within 2% (statics: the vertical
+    // split between them is indeterminate, their sum is not; measured 196.2 N), neither exceeds 2
+    // weights (measured 115 N: the weight's half and the couple that holds the door's overhang, 61 N),
+    // and the door's centre stays 0.5 m from the axis within 1 mm (measured 7e-6 m).
+    World world(settings_for(kSoftStep, Real(1) / 60, kGravity));
+    RigidSystem& rs = world.rigid();
+    const BodyId frame = add_body(rs, BodyType::Static, make_box(Vec3::Constant(Real(0.05))), Vec3(0, 0, 0));
+    const BodyId door = add_body(rs, BodyType::Dynamic, make_box(Vec3(Real(0.5), 1, Real(0.025))), Vec3(Real(0.5), 0, 0), 20);
+    JointId hinge[2];
+    for (int k = 0; k < 2; ++k) {
+        JointDef jd;
+        jd.type = JointType::Hinge;
+        jd.body_a = frame;
+        jd.body_b = door;
+        const Vec3 at(0, k ? Real(0.8) : Real(-0.8), 0);
+        jd.local_anchor_a = at;
+        jd.local_anchor_b = at - Vec3(Real(0.5), 0, 0);
+        jd.local_axis_a = Vec3::UnitY();
+        hinge[k] = rs.create_joint(jd);
+    }
+    rs.set_velocity(door, Vec3(0, 0, Real(-0.5)), Vec3(0, 1, 0));  // turning about the hinge line
+    Real worst_force = 0, worst_offset = 0;
+    double lift = 0;
+    const int steps = 120;
+    for (int i = 0; i < steps; ++i) {
+        world.step();
+        const Vec3 f0 = rs.joints().reaction_force(hinge[0]), f1 = rs.joints().reaction_force(hinge[1]);
+        worst_force = std::max({worst_force, f0.norm(), f1.norm()});
+        lift += double(f0.y() + f1.y());
+        const Vec3 c = rs.transform(door).p;
+        worst_offset = std::max(worst_offset, std::abs(std::hypot(c.x(), c.z()) - Real(0.5)));
+    }
+    REQUIRE(world.faults().empty());
+    CHECK(lift / steps == Approx(20 * 9.81).epsilon(0.02));
+    CHECK(worst_force < 2 * 20 * Real(9.81));
+    CHECK(worst_offset < Real(1e-3));
+}
+
 TEST_CASE("a 20-link chain with a 100:1 end mass stays together under the soft step (within 1 cm), split impulses and Newton", "[joints][chain]") {
     // demos/scenes/hard-chain.json: 1 kg links (0.5 m), a 100 kg end cube, one chain hanging at rest and
     // one released from horizontal, 5 s. Largest distance between a joint's two anchor points over the
-    // run. Soft step: 3.3 mm since its joints' point blocks are solved together and exactly after the
+    // run. Soft step: 3.4 mm since its joints' point blocks are solved together and exactly after the
     // sweeps, at 150 Hz (rigid/joint_point_solve.hpp; swept alone at 120 Hz they stretched 14.5 mm under
     // the swing's 3,000 N); the issue asks for 1 cm. Split impulses and Newton bound the joint's mass ratio to stay
     // together (before: metres, coming apart): 43 and 158 mm in float and double; 0.25 m. Baumgarte is

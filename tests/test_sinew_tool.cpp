@@ -215,6 +215,18 @@ TEST_CASE("run --substeps, --gain and --exchange set the coupling section and sa
     REQUIRE(bad_substeps.exited);
     CHECK(bad_substeps.status == 2);
     CHECK_THAT(bad_substeps.err, Contains("substeps = 5"));
+    // A scene whose pair override is two-way: sub-steps refused as a wrong argument, naming the pair.
+    nlohmann::ordered_json paired = nlohmann::ordered_json::parse(slurp(kSource + "/demos/scenes/ball-on-trampoline.json"));
+    paired["coupling"] = {{"strategy", "one-way"}, {"pairs", {{{"soft", "trampoline"}, {"strategy", "two-way"}}}}};
+    const fs::path paired_path = scratch() / "paired-trampoline.json";
+    {
+        std::ofstream f(paired_path);
+        f << paired.dump();
+    }
+    const Result bad_pair = sinew_cmd("run " + quote(paired_path.string()) + " --substeps 5");
+    REQUIRE(bad_pair.exited);
+    CHECK(bad_pair.status == 2);
+    CHECK_THAT(bad_pair.err, Contains("/coupling/pairs/0 is two-way"));
     const Result bad_gain = sinew_cmd("run " + scene + " --gain 2");
     REQUIRE(bad_gain.exited);
     CHECK(bad_gain.status == 2);

@@ -143,6 +143,14 @@ int run(const std::vector<std::string>& args) {
         // Sub-steps the strategy cannot take are a wrong argument here, not a wrong scene.
         const std::string problem = coupling_settings_problem(scene.coupling.settings);
         if (!problem.empty()) throw UsageError(problem);
+        // The scene's per-pair overrides join the settings only when the world is built: sub-steps need
+        // every one of them one-way or hybrid too.
+        if (scene.coupling.settings.substeps > 1)
+            for (const auto& pair : scene.coupling.pairs)
+                if (pair.strategy != CouplingStrategy::OneWay && pair.strategy != CouplingStrategy::Hybrid)
+                    throw UsageError("--substeps " + std::to_string(scene.coupling.settings.substeps) +
+                                     " needs one-way or hybrid coupling for every pair; the scene's " + pair.json_path +
+                                     " is " + coupling_strategy_name(pair.strategy));
     }
     if (opt.proxies) scene.coupling.settings.embed_proxies = *opt.proxies;
     if (opt.proxy_mass) scene.coupling.settings.embed_proxy_mass = *opt.proxy_mass;
