@@ -46,6 +46,20 @@ Vec3 keep_angular_momentum(const Quat& q_then, const Quat& q_now, const Mat3& in
 
 }  // namespace
 
+Quat RigidSystem::turned(std::uint32_t s, const Vec3& w, Real h) const {
+    const Quat& q = state_.q[s];
+    if (!settings_.gyroscopic || spherical_inertia_[s]) return integrate_rotation(q, w, h);
+    // Turned about w held fixed, a body drifts from its free motion by a second-order term in its own
+    // spin, and keep_angular_momentum turns that drift into spin about the axis of least inertia: a free
+    // 1 m x 6 cm bar tumbling at 3 rad/s with 0.01 rad/s about its long axis reached 96 rad/s there in
+    // 4 s under the soft step (356 rad/s at 1/60, its kinetic energy 0.42 -> 38 J), growing at about
+    // h w_perp^2 I_perp / I_min. Turned about the angular velocity the kept momentum has at the mid-step
+    // orientation (the implicit midpoint of dq/dt = w(q) q, to first order in the half step), the spin
+    // stays at 0.010 rad/s and the energy within 1e-4 at either step.
+    const Quat mid = integrate_rotation(q, w, h / 2);
+    return integrate_rotation(q, keep_angular_momentum(q, mid, inertia_local_[s], inv_inertia_local_[s], w), h);
+}
+
 void RigidSystem::follow_rotation(std::uint32_t s) {
     if (settings_.gyroscopic && !spherical_inertia_[s] && w_frame_[s].coeffs() != state_.q[s].coeffs())
         state_.w[s] = keep_angular_momentum(w_frame_[s], state_.q[s], inertia_local_[s], inv_inertia_local_[s], state_.w[s]);
@@ -80,7 +94,7 @@ void RigidSystem::integrate_positions(Real h) {
         if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
         if (integrate) {
             state_.x[s] += h * state_.v[s];
-            state_.q[s] = integrate_rotation(state_.q[s], state_.w[s], h);
+            state_.q[s] = turned(s, state_.w[s], h);
         }
         state_.force[s].setZero();
         state_.torque[s].setZero();

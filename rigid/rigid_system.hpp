@@ -336,6 +336,10 @@ public:
     /// The same for the listed slots only, on the calling thread (a solver working through one block of
     /// independent islands at a time).
     void integrate_velocities_of(const std::uint32_t* slots, std::size_t count, Real h);
+    /// Body s's orientation turned by angular velocity w over h (solvers that integrate positions call
+    /// it): with the gyroscopic term on and an anisotropic body, about w taken at the mid-step
+    /// orientation with the angular momentum kept (rigid/rigid_integration.cpp), else about w itself.
+    Quat turned(std::uint32_t s, const Vec3& w, Real h) const;
     /// Inverse-mass scales for a contact between slots a and b this step (1 and 1 unless the contact
     /// holds a body up under one more than RigidSettings::contact_mass_ratio times heavier: then the
     /// supporting body's inverse mass and inverse inertia are scaled so the ratio seen by the contact is

@@ -220,12 +220,12 @@ private:
     // The last sub-step is finished in finish_step(), after the pipeline's coupling hooks.
     void integrate_and_relax(RigidSystem& sys);
     /// Body s's position and rotation over the sub-step, and its motion since the step began.
-    void integrate_body_position(RigidSystem::State& st, std::uint32_t s) {
+    void integrate_body_position(const RigidSystem& sys, RigidSystem::State& st, std::uint32_t s) {
         WideBody& b = bodies_[s];
         const Vec3 v(b.v[0], b.v[1], b.v[2]), w(b.w[0], b.w[1], b.w[2]);
         if (st.inv_mass[s] == 0 && v.isZero() && w.isZero()) return;
         st.x[s] += h_sub_ * v;
-        st.q[s] = integrate_rotation(st.q[s], w, h_sub_);
+        st.q[s] = sys.turned(s, w, h_sub_);
         for (int i = 0; i < 3; ++i) {
             b.dp[i] += h_sub_ * v[i];
             b.dth[i] += h_sub_ * w[i];
@@ -649,7 +649,7 @@ void SoftStepSolver::substeps_of_block(RigidSystem& sys, int b, int worker, int 
             kernels_.solve(c, n, bodies_.data(), scratch, inv_h_sub, set.contact_push_velocity, true);
         });
         if (i + 1 == n_sub) break;  // the last sub-step's positions wait for IntegratePositions
-        for (std::size_t k = 0; k < count; ++k) integrate_body_position(st, bodies[k]);
+        for (std::size_t k = 0; k < count; ++k) integrate_body_position(sys, st, bodies[k]);
         block_colours(b, [&](WideContact* c, std::size_t n) {
             kernels_.solve(c, n, bodies_.data(), scratch, Real(1) / h_sub_, set.contact_push_velocity, false);
         });
@@ -743,7 +743,7 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
     RigidSystem::State& st = sys.state();
     const std::size_t nb = st.x.size();
     // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
-    for_each_body(nb, [&](std::size_t s) { integrate_body_position(st, std::uint32_t(s)); });
+    for_each_body(nb, [&](std::size_t s) { integrate_body_position(sys, st, std::uint32_t(s)); });
     // The outside sources move their own bodies over the same sub-step, then relax with the contacts.
     const BodyVelocities vel = body_view();
     for (ConstraintRows* rows : sys.row_sources()) rows->positions_advanced(sys, vel, h_sub_);
