@@ -46,7 +46,7 @@ struct JointSet::Impl {
     std::vector<std::uint8_t> mark;       // by body slot, scratch for `moving`
     std::vector<Vec3> pv, pw;             // pseudo-velocities of the projection pass, by body slot
     JointPointSolve points;               // soft step: the point blocks solved together after the sweeps
-    const std::vector<std::uint32_t> none;  // no joints, for the other solvers
+    const std::vector<std::uint32_t> none{};  // no joints, for the other solvers
     std::vector<std::uint32_t> point_generations;  // of the joints in `points`, as prepared
     Softness point_bias;                  // of the point blocks in that solve's biased passes
 
