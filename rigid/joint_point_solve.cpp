@@ -47,6 +47,8 @@ struct JointPointSolve::Impl {
     std::vector<Term> terms;
     std::vector<int> diagonal;               // per joint: the nine value places of its own block
     std::vector<std::uint32_t> body_place;   // scratch: body slot -> index in `bodies` (or ~0u)
+    std::vector<std::uint32_t> count;        // scratch of prepare(): ends per body in `bodies`
+    std::vector<Eigen::Triplet<double>> pattern;  // scratch of prepare(): the matrix's entries
     Eigen::SparseMatrix<double> a;
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
     bool factorable = false;
@@ -90,7 +92,8 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
     const std::size_t n = m.slots.size();
     // Movable bodies and their ends, grouped by body (counting sort).
     m.body_place.assign(body_slots, ~0u);
-    std::vector<std::uint32_t> count;
+    std::vector<std::uint32_t>& count = m.count;  // reused from step to step
+    count.clear();
     for (std::uint32_t k = 0; k < n; ++k) {
         const JointRows& r = rows[m.slots[k]];
         for (int side = 0; side < 2; ++side) {
@@ -118,7 +121,8 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
         }
     }
     // The pattern: every pair of joints sharing a movable body, their 3x3 blocks, and each joint's own.
-    std::vector<Eigen::Triplet<double>> pattern;
+    std::vector<Eigen::Triplet<double>>& pattern = m.pattern;
+    pattern.clear();
     const auto add_block = [&](std::uint32_t k, std::uint32_t l) {
         for (int u = 0; u < 3; ++u)
             for (int v = 0; v < 3; ++v) pattern.emplace_back(int(3 * k) + u, int(3 * l) + v, 0.0);

@@ -810,7 +810,7 @@ TEST_CASE("soft step: a pendulum held by two ball joints at one pivot swings as 
     // must swing as the single one does, within 1 mm after 2 s (measured 5e-6 m). A square loop of four
     // 1 kg bars hanging by one corner, released from rest, swings closed: measured 2.7 mm at most over 3 s
     // (3.5 mm with the sweeps alone); 5 mm. Kicked out of its plane at 2 m/s the thin bars spin up about
-    // their long axes (to 1,900 rad/s) and the loop opens by 0.4 m, with or without the exact solve, under
+    // their long axes (to 3,700 rad/s) and the loop opens by 0.4 m, with or without the exact solve, under
     // split impulses too, though a free bar tumbling no longer does (docs/rigid-solvers.md, known limits).
     const Real h = Real(1) / 60;
     Vec3 ends[2];
