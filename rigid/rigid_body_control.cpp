@@ -9,6 +9,9 @@
 namespace sinew {
 
 void RigidSystem::wake_touching(std::uint32_t s) {
+    // Its own island first: sleeping islands keep their union-find links (update_sleep), which must not
+    // lead through a slot that changes what it is.
+    wake_island(s);
     for (const ContactManifold& c : contacts_)
         if (c.body_a == s || c.body_b == s) {
             wake_island(c.body_a);
@@ -20,7 +23,11 @@ void RigidSystem::drop_contacts_of(std::uint32_t s) {
     restore_disabled();  // its indices are into contacts_ as it is now
     auto gone = [s](const ContactManifold& c) { return c.body_a == s || c.body_b == s; };
     contacts_.erase(std::remove_if(contacts_.begin(), contacts_.end(), gone), contacts_.end());
-    prev_contacts_.erase(std::remove_if(prev_contacts_.begin(), prev_contacts_.end(), gone), prev_contacts_.end());
+    pair_layout_valid_ = false;  // offsets moved: the next detection finds each pair's manifolds by key
+    // Should this happen between detection and the solve, every manifold left is handed to the solver
+    // (sleeping ones are immovable there, so that costs time, not results).
+    active_contacts_.resize(contacts_.size());
+    for (std::size_t i = 0; i < contacts_.size(); ++i) active_contacts_[i] = std::uint32_t(i);
 }
 
 MassProperties RigidSystem::dynamic_mass_properties(std::uint32_t s, const char* where) const {

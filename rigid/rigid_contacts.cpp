@@ -72,8 +72,9 @@ void RigidSystem::detect_collisions(Real h) {
     }
     // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
     // resting scene keeps last step's sorted list (as Box2D keeps its pair set between moves).
-    if (tree_.revision() != pairs_tree_revision_ || joints_->filter_revision() != pairs_filter_revision_ ||
-        ignored_changed_) {
+    const bool pairs_rebuilt = tree_.revision() != pairs_tree_revision_ ||
+                               joints_->filter_revision() != pairs_filter_revision_ || ignored_changed_;
+    if (pairs_rebuilt) {
         ignored_changed_ = false;
         pairs_tree_revision_ = tree_.revision();
         pairs_filter_revision_ = joints_->filter_revision();
@@ -90,33 +91,40 @@ void RigidSystem::detect_collisions(Real h) {
         std::sort(pair_keys_.begin(), pair_keys_.end());
     }
 
-    // Pass 1, serial and cheap: each pair's cached manifolds (a merge join of two lists sorted by key),
-    // whether it sleeps, and the bodies to place. Sleep is read as the step found it: a pair that wakes
-    // a sleeping island does so after the narrow phase (pass 4), so no pair's outcome depends on the order
-    // the pairs are handled in, and the passes below can run on any number of workers.
+    // Pass 1, serial and cheap: where each pair's manifolds from the last step are, whether it sleeps,
+    // and the bodies to place. Sleep is read as the step found it: a pair that wakes a sleeping island
+    // does so after the narrow phase (pass 4), so no pair's outcome depends on the order the pairs are
+    // handled in, and the passes below can run on any number of workers. contacts_ still holds the last
+    // step's manifolds until pass 4: the narrow phase reads its cache there.
     const std::size_t slots = slots_.size();
     detect_xf_.resize(slots);
     detect_rot_.resize(slots);
     detect_placed_.assign(slots, 0);
-    // contacts_ keeps its old elements until pass 4 overwrites them: resizing from about the same count
-    // constructs few new ones (constructing every manifold was 3 % of pyramid-40's step).
-    std::swap(prev_contacts_, contacts_);
     const std::size_t np = pair_keys_.size();
+    // While the pair list stands, each pair's manifolds are where the last step put them; else a merge
+    // join of the two lists, both sorted by key, finds them (reading every manifold's key: 50,000 boxes
+    // asleep spent about 1.5 ms a step on it).
+    const bool same_pairs = pair_layout_valid_ && !pairs_rebuilt && pair_work_.size() == np;
     pair_work_.resize(np);
     std::size_t prev_i = 0;
     for (std::size_t i = 0; i < np; ++i) {
         const std::uint64_t key = pair_keys_[i];
         const std::uint32_t a = std::uint32_t(key >> 32), b = std::uint32_t(key & 0xFFFFFFFFu);
-        while (prev_i < prev_contacts_.size() && pair_key(prev_contacts_[prev_i].body_a, prev_contacts_[prev_i].body_b) < key)
-            ++prev_i;
-        std::size_t prev_end = prev_i;
-        while (prev_end < prev_contacts_.size() && pair_key(prev_contacts_[prev_end].body_a, prev_contacts_[prev_end].body_b) == key)
-            ++prev_end;
+        PairWork& w = pair_work_[i];
+        if (same_pairs) {
+            w.prev_begin = w.offset;
+            w.prev_end = w.offset + w.stored;
+        } else {
+            while (prev_i < contacts_.size() && pair_key(contacts_[prev_i].body_a, contacts_[prev_i].body_b) < key) ++prev_i;
+            std::size_t prev_end = prev_i;
+            while (prev_end < contacts_.size() && pair_key(contacts_[prev_end].body_a, contacts_[prev_end].body_b) == key)
+                ++prev_end;
+            w.prev_begin = std::uint32_t(prev_i);
+            w.prev_end = std::uint32_t(prev_end);
+            w.left_asleep = false;  // not known: it goes to the solver once more
+        }
         const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
         const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
-        PairWork& w = pair_work_[i];
-        w.prev_begin = std::uint32_t(prev_i);
-        w.prev_end = std::uint32_t(prev_end);
         w.asleep = asleep_a && asleep_b;
         w.wakes = asleep_a != asleep_b ? (asleep_a ? a : b) : kNoSlot;
         w.count = 0;
@@ -144,31 +152,61 @@ void RigidSystem::detect_collisions(Real h) {
             for (int i = begin; i < end; ++i)
                 if (!pair_work_[std::size_t(i)].asleep) detect_pair(std::size_t(i), h, margin, worker);
         });
-        // Pass 4: the manifolds in key order (offsets here, the copies on the workers); then, after the
-        // region, the islands the awake pairs touch are woken.
+        // Pass 4: the manifolds in key order. Sleeping pairs keep theirs, moved within contacts_ only
+        // when a pair before them changed its count (here, serially); the awake pairs' are copied from
+        // the workers' lists (on the workers). Then, after the region, the islands the awake pairs touch
+        // are woken.
         std::size_t total = 0;
         for (PairWork& w : pair_work_) {
             w.offset = std::uint32_t(total);
-            total += w.asleep ? std::size_t(w.prev_end - w.prev_begin) : std::size_t(w.count);
+            w.stored = w.asleep ? w.prev_end - w.prev_begin : w.count;
+            total += w.stored;
         }
-        contacts_.resize(total);
+        if (total > contacts_.size()) contacts_.resize(total);
+        move_sleeping_manifolds();
         region_.for_each(int(np), 64, [&](int begin, int end, int) {
             for (int i = begin; i < end; ++i) {
                 const PairWork& w = pair_work_[std::size_t(i)];
-                // Sleeping pair (seed 001 ch.2): not tested, but its contacts are kept so the island stays
-                // connected and wakes as a whole.
-                const ContactManifold* from = w.asleep ? prev_contacts_.data() + w.prev_begin
-                                                       : detect_out_[std::size_t(w.worker)].data() + w.first;
-                const std::size_t n = w.asleep ? std::size_t(w.prev_end - w.prev_begin) : std::size_t(w.count);
-                std::copy(from, from + n, contacts_.begin() + std::ptrdiff_t(w.offset));
+                if (w.asleep) continue;
+                const ContactManifold* from = detect_out_[std::size_t(w.worker)].data() + w.first;
+                std::copy(from, from + w.count, contacts_.begin() + std::ptrdiff_t(w.offset));
             }
         });
+        contacts_.resize(total);
     });
+    pair_layout_valid_ = true;
     // A sleeping body touched by an awake one wakes with its whole island.
     for (const PairWork& w : pair_work_)
         if (!w.asleep && w.count > 0 && w.wakes != kNoSlot) wake_island(w.wakes);
+    // What the solve sees: pairs with a body awake now (a sleeping pair in an island just woken counts),
+    // and sleeping pairs once, in the step they fell asleep.
+    active_contacts_.clear();
+    for (std::size_t i = 0; i < np; ++i) {
+        PairWork& w = pair_work_[i];
+        bool woken = false;
+        if (w.asleep && w.stored > 0) {
+            const std::uint32_t a = std::uint32_t(pair_keys_[i] >> 32), b = std::uint32_t(pair_keys_[i] & 0xFFFFFFFFu);
+            woken = (type_[a] != BodyType::Static && awake_[a]) || (type_[b] != BodyType::Static && awake_[b]);
+        }
+        const bool active = !w.asleep || !w.left_asleep || woken;
+        w.left_asleep = w.asleep && !woken;
+        if (active)
+            for (std::uint32_t k = 0; k < w.stored; ++k) active_contacts_.push_back(w.offset + k);
+    }
     std::fill(reshaped_.begin(), reshaped_.end(), std::uint8_t(0));
     if (pre_solve_) apply_pre_solve();
+}
+
+void RigidSystem::move_sleeping_manifolds() {
+    // A sleeping pair keeps its count, and both its old and new ranges come in pair order. Those moving
+    // towards the front, taken front to back, land on nothing not yet moved; so do those moving towards
+    // the back, taken back to front (memmove's argument, pair by pair). Awake pairs write afterwards.
+    ContactManifold* c = contacts_.data();
+    for (const PairWork& w : pair_work_)
+        if (w.asleep && w.offset < w.prev_begin) std::copy(c + w.prev_begin, c + w.prev_end, c + w.offset);
+    for (auto it = pair_work_.rbegin(); it != pair_work_.rend(); ++it)
+        if (it->asleep && it->offset > it->prev_begin)
+            std::copy_backward(c + it->prev_begin, c + it->prev_end, c + it->offset + it->stored);
 }
 
 void RigidSystem::detect_pair(std::size_t i, Real h, Real margin, int worker) {
@@ -184,13 +222,13 @@ void RigidSystem::detect_pair(std::size_t i, Real h, Real margin, int worker) {
     const Mat3& rot_b = detect_rot_[b];
     const Transform relative = xa.inverse() * xb;
     const std::size_t prev_i = w.prev_begin, prev_end = w.prev_end;
-    if (prev_end > prev_i && !reshaped_[a] && !reshaped_[b] && can_reuse(prev_contacts_[prev_i].relative, relative)) {
+    if (prev_end > prev_i && !reshaped_[a] && !reshaped_[b] && can_reuse(contacts_[prev_i].relative, relative)) {
         // Body-pair cache (as Jolt does): the pair moved as one within 1 mm and 0.5 degrees since
         // its manifold was computed, so the cached points are carried with the bodies instead of
         // running the narrow phase again. Points stay attached to A and B; the depth follows the
         // bodies' relative motion along the normal. Warm-start impulses are kept as they are.
         for (std::size_t j = prev_i; j < prev_end; ++j) {
-            ContactManifold c = prev_contacts_[j];
+            ContactManifold c = contacts_[j];
             Manifold& m = c.manifold;
             m.normal = rot_a * c.normal_local_a;
             for (int k = 0; k < m.count; ++k) {
@@ -263,7 +301,7 @@ void RigidSystem::add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Tr
         // points by feature id, else by proximity in A's local frame (seed 001 ch.5).
         if (settings_.warm_starting) {
             for (std::size_t i = prev_i; i < prev_end; ++i) {
-                const Manifold& old = prev_contacts_[i].manifold;
+                const Manifold& old = contacts_[i].manifold;
                 if (old.sub_key != m.sub_key) continue;
                 for (int k = 0; k < m.count; ++k) {
                     ContactPoint& p = m.points[k];

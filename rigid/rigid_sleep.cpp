@@ -57,46 +57,56 @@ void RigidSystem::sleep(BodyId id) {
 
 void RigidSystem::update_sleep(Real h) {
     const std::size_t n = slots_.size();
-    // Islands: union-find over contacts between two dynamic bodies (static bodies do not join islands).
-    for (std::uint32_t s = 0; s < n; ++s) island_[s] = s;
-    for (const ContactManifold& c : contacts_) {
-        if (c.manifold.count == 0 || type_[c.body_a] != BodyType::Dynamic || type_[c.body_b] != BodyType::Dynamic)
-            continue;
-        std::uint32_t ra = find_root(c.body_a), rb = find_root(c.body_b);
+    auto counts = [&](std::uint32_t s) { return slots_.alive(s) && type_[s] == BodyType::Dynamic && enabled_[s]; };
+    // A joint from an awake body to a sleeping one wakes the sleeping island: nothing in an awake island
+    // may stay asleep (no floating).
+    joints_->for_each_connection([&](std::uint32_t a, std::uint32_t b) {
+        if (type_[a] != BodyType::Dynamic || type_[b] != BodyType::Dynamic || !enabled_[a] || !enabled_[b]) return;
+        if (awake_[a] != awake_[b]) wake_island(awake_[a] ? b : a);
+    });
+    // Islands of the awake bodies: union-find over contacts and joints between two awake dynamic bodies
+    // (static bodies join no island). A sleeping island keeps the links it fell asleep with, so its
+    // bodies and contacts cost nothing here: a contact from an awake body to a sleeping one woke that
+    // island in detection, and a joint just above.
+    for (std::uint32_t s = 0; s < n; ++s)
+        if (awake_[s] && counts(s)) island_[s] = s;
+    auto join = [&](std::uint32_t a, std::uint32_t b) {
+        const std::uint32_t ra = find_root(a), rb = find_root(b);
         if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
+    };
+    for (const std::uint32_t ci : active_contacts_) {
+        const ContactManifold& c = contacts_[ci];
+        if (c.manifold.count == 0 || type_[c.body_a] != BodyType::Dynamic || type_[c.body_b] != BodyType::Dynamic ||
+            !awake_[c.body_a] || !awake_[c.body_b])
+            continue;
+        join(c.body_a, c.body_b);
     }
     joints_->for_each_connection([&](std::uint32_t a, std::uint32_t b) {
         if (type_[a] != BodyType::Dynamic || type_[b] != BodyType::Dynamic || !enabled_[a] || !enabled_[b]) return;
-        std::uint32_t ra = find_root(a), rb = find_root(b);
-        if (ra != rb) island_[std::max(ra, rb)] = std::min(ra, rb);
+        if (awake_[a] && awake_[b]) join(a, b);
     });
     const Real lin2 = settings_.sleep_linear_velocity * settings_.sleep_linear_velocity;
     const Real ang2 = settings_.sleep_angular_velocity * settings_.sleep_angular_velocity;
-    // Per body: time spent below the thresholds. Per island: the minimum over its bodies.
-    island_min_timer_.assign(n, kRealMax);
-    island_awake_.assign(n, 0);
+    // Per body: time spent below the thresholds. Per island: the minimum over its bodies (kept at the
+    // root, an awake body's slot).
+    island_min_timer_.resize(n);
+    for (std::uint32_t s = 0; s < n; ++s)
+        if (awake_[s] && counts(s)) island_min_timer_[s] = kRealMax;
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic || !enabled_[s]) continue;
-        if (awake_[s]) {
-            if (!allow_sleep_[s] || state_.v[s].squaredNorm() > lin2 || state_.w[s].squaredNorm() > ang2)
-                sleep_timer_[s] = 0;
-            else
-                sleep_timer_[s] += h;
-        }
-        std::uint32_t r = find_root(s);
-        island_min_timer_[r] = std::min(island_min_timer_[r], awake_[s] ? sleep_timer_[s] : kRealMax);
-        island_awake_[r] |= awake_[s] ? 1 : 0;
+        if (!awake_[s] || !counts(s)) continue;
+        if (!allow_sleep_[s] || state_.v[s].squaredNorm() > lin2 || state_.w[s].squaredNorm() > ang2)
+            sleep_timer_[s] = 0;
+        else
+            sleep_timer_[s] += h;
+        const std::uint32_t r = find_root(s);
+        island_min_timer_[r] = std::min(island_min_timer_[r], sleep_timer_[s]);
     }
     for (std::uint32_t s = 0; s < n; ++s) {
-        if (!slots_.alive(s) || type_[s] != BodyType::Dynamic || !enabled_[s]) continue;
-        std::uint32_t r = find_root(s);
-        if (island_awake_[r] && island_min_timer_[r] >= settings_.sleep_time) {
+        if (!awake_[s] || !counts(s)) continue;
+        if (island_min_timer_[find_root(s)] >= settings_.sleep_time) {
             awake_[s] = false;  // the whole island falls asleep together
             state_.v[s].setZero();
             state_.w[s].setZero();
-        } else if (island_awake_[r] && !awake_[s]) {
-            awake_[s] = true;   // joined an awake island: nothing may stay asleep in it (no floating)
-            sleep_timer_[s] = 0;
         }
     }
 }

@@ -29,8 +29,11 @@ void RigidSystem::compute_support_levels() {
     if (bound <= 0 || settings_.solver == RigidSolverKind::Newton) return;
     const State& st = state_;
     // Most steps have no such contact: one pass over the manifolds decides.
+    // Sleeping islands' contacts join immovable bodies to immovable ones: they change no level.
+    const std::vector<std::uint32_t>& active = active_contacts_;
     bool needed = false;
-    for (const ContactManifold& c : contacts_) {
+    for (const std::uint32_t ci : active) {
+        const ContactManifold& c = contacts_[ci];
         const Real wa = st.inv_mass[c.body_a], wb = st.inv_mass[c.body_b];
         if (c.manifold.count > 0 && wa > 0 && wb > 0 && (wa > bound * wb || wb > bound * wa)) {
             needed = true;
@@ -38,10 +41,11 @@ void RigidSystem::compute_support_levels() {
         }
     }
     if (!needed) return;
-    support_level_.compute(st.inv_mass, contacts_.size(), [&](std::size_t i, std::uint32_t& a, std::uint32_t& b) {
-        a = contacts_[i].body_a;
-        b = contacts_[i].body_b;
-        return contacts_[i].manifold.count > 0;
+    support_level_.compute(st.inv_mass, active.size(), [&](std::size_t i, std::uint32_t& a, std::uint32_t& b) {
+        const ContactManifold& c = contacts_[active[i]];
+        a = c.body_a;
+        b = c.body_b;
+        return c.manifold.count > 0;
     });
 }
 

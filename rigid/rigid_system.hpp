@@ -306,6 +306,11 @@ public:
 
     /// Contacts found by the last DetectCollisions stage (solver order; impulses after the solve).
     const std::vector<ContactManifold>& contacts() const { return contacts_; }
+    /// Indices into contacts(), ascending, of the manifolds this step's solve must see: every pair with a
+    /// body awake after detection, and sleeping pairs in the step they fell asleep (a solver clears what
+    /// they carried). The rest are pairs of sleeping islands, kept untouched until they wake: a world at
+    /// rest costs no manifold work (Box2D v3 keeps them in its sleeping solver sets).
+    const std::vector<std::uint32_t>& active_contacts() const { return active_contacts_; }
     /// For solvers (accumulated impulses) and coupling layers.
     std::vector<ContactManifold>& mutable_contacts() { return contacts_; }
     /// Runs the broad and narrow phase now (solvers that detect more than once per step call it).
@@ -425,9 +430,8 @@ private:
     std::vector<Real> sleep_timer_;
     std::vector<std::uint64_t> user_data_;
     std::vector<std::int32_t> proxy_;
-    std::vector<std::uint32_t> island_;   ///< union-find parent, rebuilt each step by update_sleep()
+    std::vector<std::uint32_t> island_;   ///< union-find parent: awake bodies' rebuilt each step by update_sleep(), sleeping islands' kept
     std::vector<Real> island_min_timer_;
-    std::vector<std::uint8_t> island_awake_;
     std::vector<std::uint64_t> pair_keys_;
     // The broad phase's pairs are recomputed only when the tree or the joint filter changed since.
     std::uint64_t structure_revision_ = 0;
@@ -450,17 +454,25 @@ private:
     std::vector<std::pair<std::uint32_t, int>> disabled_;
     void restore_disabled();
     void apply_pre_solve();
-    std::vector<ContactManifold> prev_contacts_;  ///< last step's, for warm starting
-    /// Per candidate pair of this step's detection: its cached manifolds in prev_contacts_, whether it
-    /// sleeps, the slot it wakes (or kNoSlot), and where its manifolds went in detect_out_.
+    std::vector<std::uint32_t> active_contacts_;
+    /// Per candidate pair of this step's detection: its cached manifolds (last step's, still in contacts_
+    /// until pass 4 moves them), whether it sleeps, the slot it wakes (or kNoSlot), and where its
+    /// manifolds went in detect_out_. Kept between steps: while the pair list stands, last step's offset
+    /// and count say where a pair's manifolds are, with no search.
     struct PairWork {
         std::uint32_t prev_begin, prev_end;
         std::uint32_t wakes;
         std::uint32_t first, count;
         std::uint32_t offset;  ///< where its manifolds go in contacts_
+        std::uint32_t stored;  ///< how many it has there after pass 4
         int worker;
         bool asleep;
+        bool left_asleep;  ///< a sleeping pair of the last step, already out of the active contacts
     };
+    /// pair_work_ describes contacts_ as it is (false after a body's contacts were dropped).
+    bool pair_layout_valid_ = false;
+    /// Pass 4: the manifolds of sleeping pairs moved to their new offsets within contacts_.
+    void move_sleeping_manifolds();
     static constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;
     std::vector<PairWork> pair_work_;
     std::vector<std::vector<ContactManifold>> detect_out_;  ///< per worker
