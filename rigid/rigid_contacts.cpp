@@ -64,11 +64,34 @@ void RigidSystem::apply_pre_solve() {
 
 void RigidSystem::detect_collisions(Real h) {
     restore_disabled();
+    // One region for the whole detection: helpers when the last step had enough pairs (waking them
+    // costs more than a small scene's whole detection). The first step runs on this thread alone.
+    region_.run(pair_keys_.size() >= kParallelPairs ? tasks_ : nullptr, [&] { detect_in_region(h); });
+    pair_layout_valid_ = true;
+    // A sleeping body touched by an awake one wakes with its whole island.
+    for (const PairWork& w : pair_work_)
+        if (!w.asleep && w.count > 0 && w.wakes != kNoSlot) wake_island(w.wakes);
+    list_active_contacts();
+    std::fill(reshaped_.begin(), reshaped_.end(), std::uint8_t(0));
+    if (pre_solve_) apply_pre_solve();
+}
+
+void RigidSystem::detect_in_region(Real h) {
     const Real margin = settings_.contact_margin;
     // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
-    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
+    // Their boxes on the workers, the tree (a body's box left its fat box: re-inserted) on this thread.
+    const std::size_t slots = slots_.size();
+    detect_box_.resize(slots);
+    region_.for_each(int(slots), 256, [&](int begin, int end, int) {
+        for (int i = begin; i < end; ++i) {
+            const std::uint32_t s = std::uint32_t(i);
+            if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
+            detect_box_[s] = shape_[s].bounds(origin_transform(s));
+        }
+    });
+    for (std::uint32_t s = 0; s < slots; ++s) {
         if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
-        tree_.move(proxy_[s], shape_[s].bounds(origin_transform(s)), h * state_.v[s], margin);
+        tree_.move(proxy_[s], detect_box_[s], h * state_.v[s], margin);
     }
     // Candidate pairs change only when a fat box was re-inserted (or a body or joint came or went): a
     // resting scene keeps last step's sorted list (as Box2D keeps its pair set between moves).
@@ -96,7 +119,6 @@ void RigidSystem::detect_collisions(Real h) {
     // does so after the narrow phase (pass 4), so no pair's outcome depends on the order the pairs are
     // handled in, and the passes below can run on any number of workers. contacts_ still holds the last
     // step's manifolds until pass 4: the narrow phase reads its cache there.
-    const std::size_t slots = slots_.size();
     detect_xf_.resize(slots);
     detect_rot_.resize(slots);
     detect_placed_.assign(slots, 0);
@@ -133,8 +155,7 @@ void RigidSystem::detect_collisions(Real h) {
         // tested pair: 50,176 boxes asleep on the ground spent 0.7 ms a step placing every body.
         if (!w.asleep) detect_placed_[a] = detect_placed_[b] = 1;
     }
-    // Helpers only for enough pairs: waking them costs more than a small scene's whole detection.
-    region_.run(np >= kParallelPairs ? tasks_ : nullptr, [&] {
+    {
         const std::size_t workers = std::size_t(region_.workers());
         if (detect_out_.size() < workers) detect_out_.resize(workers);
         if (detect_scratch_.size() < workers) detect_scratch_.resize(workers);
@@ -173,15 +194,14 @@ void RigidSystem::detect_collisions(Real h) {
             }
         });
         contacts_.resize(total);
-    });
-    pair_layout_valid_ = true;
-    // A sleeping body touched by an awake one wakes with its whole island.
-    for (const PairWork& w : pair_work_)
-        if (!w.asleep && w.count > 0 && w.wakes != kNoSlot) wake_island(w.wakes);
+    }
+}
+
+void RigidSystem::list_active_contacts() {
     // What the solve sees: pairs with a body awake now (a sleeping pair in an island just woken counts),
     // and sleeping pairs once, in the step they fell asleep.
     active_contacts_.clear();
-    for (std::size_t i = 0; i < np; ++i) {
+    for (std::size_t i = 0; i < pair_work_.size(); ++i) {
         PairWork& w = pair_work_[i];
         bool woken = false;
         if (w.asleep && w.stored > 0) {
@@ -193,8 +213,6 @@ void RigidSystem::detect_collisions(Real h) {
         if (active)
             for (std::uint32_t k = 0; k < w.stored; ++k) active_contacts_.push_back(w.offset + k);
     }
-    std::fill(reshaped_.begin(), reshaped_.end(), std::uint8_t(0));
-    if (pre_solve_) apply_pre_solve();
 }
 
 void RigidSystem::move_sleeping_manifolds() {

@@ -2,6 +2,7 @@
 // from velocities, and the solver's and outside rows' end-of-step work.
 #include "rigid/rigid_system.hpp"
 
+#include <atomic>
 #include <cmath>
 
 #include "engine/core/format.hpp"
@@ -11,19 +12,30 @@
 
 namespace sinew {
 
+namespace {
+/// Contacts in the last solve from which the step's per-body stages open a region with helpers (below,
+/// waking them costs more than the loops).
+constexpr std::size_t kParallelBodies = 128;
+}  // namespace
+
+const TaskSystem* RigidSystem::body_stage_tasks() const {
+    return active_contacts_.size() >= kParallelBodies ? tasks_ : nullptr;
+}
+
 void RigidSystem::prepare_mass_state() {
-    const std::size_t n = slots_.size();
-    for (std::size_t s = 0; s < n; ++s) {
-        if (!(slots_.alive(s) && type_[s] == BodyType::Dynamic && awake_[s])) {
-            // Static, kinematic and sleeping bodies are immovable in this step's solve.
-            state_.inv_mass[s] = 0;
-            state_.inv_inertia_world[s].setZero();
-            continue;
+    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+        for (std::size_t s = std::size_t(begin); s < std::size_t(end); ++s) {
+            if (!(slots_.alive(s) && type_[s] == BodyType::Dynamic && awake_[s])) {
+                // Static, kinematic and sleeping bodies are immovable in this step's solve.
+                state_.inv_mass[s] = 0;
+                state_.inv_inertia_world[s].setZero();
+                continue;
+            }
+            Mat3 r = state_.q[s].toRotationMatrix();
+            state_.inv_mass[s] = body_inv_mass_[s];
+            state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
         }
-        Mat3 r = state_.q[s].toRotationMatrix();
-        state_.inv_mass[s] = body_inv_mass_[s];
-        state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
-    }
+    });
 }
 
 namespace {
@@ -89,16 +101,26 @@ void RigidSystem::integrate_velocities_of(const std::uint32_t* slots, std::size_
 }
 
 void RigidSystem::integrate_positions(Real h) {
+    // One region for the step's end, which the solver's finish joins (the soft step's relax and
+    // restitution passes).
+    region_.run(body_stage_tasks(), [&] { integrate_positions_in_region(h); });
+    if (settings_.continuous) continuous_collisions();
+    if (settings_.sleeping) update_sleep(h);
+}
+
+void RigidSystem::integrate_positions_in_region(Real h) {
     const bool integrate = !solver_->integrates_itself();
-    for (std::uint32_t s = 0; s < slots_.size(); ++s) {
-        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
-        if (integrate) {
-            state_.x[s] += h * state_.v[s];
-            state_.q[s] = turned(s, state_.w[s], h);
+    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s) {
+            if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
+            if (integrate) {
+                state_.x[s] += h * state_.v[s];
+                state_.q[s] = turned(s, state_.w[s], h);
+            }
+            state_.force[s].setZero();
+            state_.torque[s].setZero();
         }
-        state_.force[s].setZero();
-        state_.torque[s].setZero();
-    }
+    });
     if (integrate) {
         // The soft step tells the sources after each of its sub-steps; the others move once per step.
         const BodyVelocities vel = BodyVelocities::of_arrays(state_.v, state_.w);
@@ -109,12 +131,28 @@ void RigidSystem::integrate_positions(Real h) {
     if (settings_.gyroscopic) {
         // The step's rotation turned each body's inertia: its angular velocity at the new orientation
         // keeps the angular momentum (so what the step reports agrees with where the body now is).
-        for (std::uint32_t s = 0; s < slots_.size(); ++s)
-            if (state_.inv_mass[s] != 0) follow_rotation(s);
+        region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+            for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s)
+                if (state_.inv_mass[s] != 0) follow_rotation(s);
+        });
     }
-    contain_non_finite();
-    if (settings_.continuous) continuous_collisions();
-    if (settings_.sleeping) update_sleep(h);
+    // Every body checked on the workers; the rare unsound one put back on this thread.
+    std::atomic<bool> unsound{false};
+    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s)
+            if (!state_is_sound(s)) unsound.store(true, std::memory_order_relaxed);
+    });
+    if (unsound.load(std::memory_order_relaxed)) contain_non_finite();
+}
+
+bool RigidSystem::state_is_sound(std::uint32_t s) const {
+    // A sleeping body has not moved since it was checked awake.
+    if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) return true;
+    // A finite orientation far from unit length (zero, after normalising an overflowed one) is as
+    // broken as a NaN: every later rotation of the body is.
+    const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
+    return state_.x[s].allFinite() && std::abs(state_.q[s].squaredNorm() - 1) < Real(0.1) &&
+           state_.v[s].squaredNorm() < fast && state_.w[s].squaredNorm() < fast;
 }
 
 void RigidSystem::contain_non_finite() {

@@ -78,9 +78,12 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
             start_x_ = state_.x;  // no allocation once the arrays have grown
             start_q_ = state_.q;
             unintegrated_time_ = ctx.h;
-            prepare_mass_state();
-            solver_->before_integrate_velocities(*this, ctx.h);
-            if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
+            // One region for the stage: the masses and velocities body by body on the workers.
+            region_.run(body_stage_tasks(), [&] {
+                prepare_mass_state();
+                solver_->before_integrate_velocities(*this, ctx.h);
+                if (!solver_->integrates_itself()) integrate_velocities(ctx.h);
+            });
             break;
         case Stage::DetectCollisions: detect_collisions(ctx.h); break;
         case Stage::SolveVelocities:

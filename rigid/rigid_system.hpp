@@ -373,6 +373,16 @@ private:
     /// Pass 3 of detect_collisions for pair i: its manifolds, cached or fresh, appended to the worker's
     /// list (pair_work_[i] records where).
     void detect_pair(std::size_t i, Real h, Real margin, int worker);
+    /// DetectCollisions inside its parallel region: refit, pairs, passes 1-4 (rigid_contacts.cpp).
+    void detect_in_region(Real h);
+    /// active_contacts_ from this step's pairs, after the wakes.
+    void list_active_contacts();
+    /// IntegratePositions inside its parallel region (the solver's finish joins it).
+    void integrate_positions_in_region(Real h);
+    /// The task system for the per-body stages' regions, or null when the step is too small for helpers.
+    const TaskSystem* body_stage_tasks() const;
+    /// Whether body s's state is what contain_non_finite accepts (a sleeping or static body always is).
+    bool state_is_sound(std::uint32_t s) const;
     void add_fresh_manifolds(std::uint32_t a, std::uint32_t b, const Transform& xa, const Transform& xb,
                              const Transform& relative, std::size_t prev_i, std::size_t prev_end, ManifoldList& fresh,
                              std::vector<ContactManifold>& out) const;
@@ -444,6 +454,7 @@ private:
     std::vector<Transform> detect_xf_;  ///< per slot: where DetectCollisions places the body this step
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
     std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
+    std::vector<Aabb> detect_box_;             ///< per slot: the moving body's box this step (refit)
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     /// Per slot: contacts between the body and an immovable one (0 for those; breadth first), or empty
     /// when no contact needs them this step (compute_support_levels).

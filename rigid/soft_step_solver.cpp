@@ -722,13 +722,23 @@ void SoftStepSolver::solve_in_region(RigidSystem& sys, Real h) {
         return;
     }
     for (int i = 0; i < n_sub; ++i) {
-        // Velocities of moving bodies: gravity and forces, through the system (it owns the body data).
-        if (i > 0) bodies_to_state(st);
-        // Only the bodies that move: the rest have no velocity to integrate (inv_mass 0).
+        // Velocities of the moving bodies (the rest have none to integrate), through the system's state
+        // and back into the solver's rows: one stage, each body on its own.
         region_->for_each(int(moving_.size()), kBodiesPerBlock, [&](int begin, int end, int) {
-            sys.integrate_velocities_of(moving_.data() + begin, std::size_t(end - begin), h_sub);
+            for (int k = begin; k < end; ++k) {
+                const std::uint32_t s = moving_[std::size_t(k)];
+                WideBody& b = bodies_[s];
+                if (i > 0) {
+                    st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
+                    st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+                }
+                sys.integrate_velocities_of(&s, 1, h_sub);
+                for (int j = 0; j < 3; ++j) {
+                    b.v[j] = st.v[s][j];
+                    b.w[j] = st.w[s][j];
+                }
+            }
         });
-        bodies_from_state(st);
         if (set.warm_starting)
             for (ConstraintRows* rows : sys.row_sources()) rows->warm_start(sys, vel);
         for (ConstraintRows* rows : sys.row_sources()) rows->solve(sys, vel, true);

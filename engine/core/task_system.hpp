@@ -49,7 +49,9 @@ struct TaskSystem {
 /// The most workers a region uses (a bound for per-worker scratch arrays).
 constexpr int kMaxWorkers = 64;
 
-/// A parallel region: see the file comment. Not reentrant: one run() at a time per region object.
+/// A parallel region: see the file comment. One run() at a time per region object; a run() inside a
+/// run() of the same region on its calling thread joins the outer one (its helpers, its worker count),
+/// so a stage's owner can open a region around code whose parts open their own.
 class ParallelRegion {
 public:
     ParallelRegion() = default;
@@ -60,10 +62,18 @@ public:
     /// join the stages body() publishes through for_each().
     template <class Body>
     void run(const TaskSystem* tasks, Body&& body) {
+        if (running_) {
+            body();
+            return;
+        }
         open(tasks);
+        running_ = true;
         struct Closer {
             ParallelRegion* r;
-            ~Closer() { r->close(); }
+            ~Closer() {
+                r->running_ = false;
+                r->close();
+            }
         } closer{this};
         body();
     }
@@ -134,6 +144,7 @@ private:
     int block_ = 1;
     std::uint32_t seq_ = 0;
     int workers_ = 1;
+    bool running_ = false;  // inside run(), on the thread that called it
     const TaskSystem* tasks_ = nullptr;
     std::thread::id owner_;
     Helper helpers_[kMaxWorkers];
