@@ -32,7 +32,7 @@ private:
         TaskFn fn = nullptr;
         int count = 0;
         void* ctx = nullptr;
-        int state = 0;  // 0 queued, 1 running, 2 done (under mutex_)
+        std::atomic<int> state{0};  // 0 queued, 1 running, 2 done (written under mutex_; finish spins on it)
     };
     static void* enqueue(TaskFn fn, int count, int min_range, void* ctx, void* pool);
     static void finish(void* job, void* pool);
