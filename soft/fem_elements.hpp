@@ -30,6 +30,7 @@
 namespace sinew {
 
 struct SoftBody;
+class ParallelRegion;
 
 struct FemState {
     // Rest data (from the positions at creation).
@@ -103,8 +104,11 @@ void fem_assemble_stiffness(FemState& s);
 /// The three above in one pass over the elements (each F computed once, soft/fem_kernel.cpp): the
 /// rotations at x if `rotate` (else the kept ones), f += the forces if f is not null, K' assembled if
 /// `assemble`. The force-model row calls this.
+/// With a region of several workers the rotations of linear tets are found first, batch by batch on the
+/// workers (each batch writes only its own elements' rotations); the forces and blocks, which scatter to
+/// shared nodes, follow in element order on the calling thread, so the result is the same bit for bit.
 void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
-                bool rotate, std::vector<Vec3>* f, bool assemble);
+                bool rotate, std::vector<Vec3>* f, bool assemble, ParallelRegion* region = nullptr);
 
 /// O'Brien's rule at x with the current rotations: ε_e = ε - ε_p; above yield ε_p += h creep ε_e;
 /// ‖ε_p‖ capped at max_plastic.

@@ -35,7 +35,7 @@ void add_mass_damping(const SoftBody& b, const std::vector<Vec3>& v, std::vector
 // The FEM state is this model's scratch: evaluating forces updates its rotations.
 void add_fem_forces(const SoftBody& b, const std::vector<Vec3>& x, const std::vector<Vec3>& v, std::vector<Vec3>& f) {
     FemState& s = *b.fem;
-    fem_kernel(s, x, &v, b.def.fem.stiffness_damping, b.def.fem.rotation, !s.rotations_current, &f, false);
+    fem_kernel(s, x, &v, b.def.fem.stiffness_damping, b.def.fem.rotation, !s.rotations_current, &f, false, b.region);
     s.rotations_current = false;
     add_mass_damping(b, v, f);
 }
@@ -44,7 +44,7 @@ void prepare_fem_implicit(const SoftBody& b, ImplicitTerms& t) {
     FemState& s = *b.fem;
     const Particles& p = b.p;
     const FemMaterial& mat = b.def.fem;
-    fem_kernel(s, p.x, &p.v, mat.stiffness_damping, mat.rotation, !s.rotations_current, t.force, true);
+    fem_kernel(s, p.x, &p.v, mat.stiffness_damping, mat.rotation, !s.rotations_current, t.force, true, b.region);
     s.rotations_current = false;
     add_mass_damping(b, p.v, *t.force);
 

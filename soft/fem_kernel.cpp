@@ -16,6 +16,7 @@
 #include <cmath>
 
 #include "soft/fem_elements.hpp"
+#include "engine/core/task_system.hpp"
 
 namespace sinew {
 
@@ -311,9 +312,39 @@ void stiffness_lanes(FemState& s, const Batch& b) {
 
 }  // namespace
 
+namespace {
+
+/// The rotations of batch `first`'s elements at x (b gathered), kept in the state and left in b.R.
+void rotate_batch(FemState& s, FemRotation method, std::size_t first, Batch& b) {
+    switch (method) {
+        case FemRotation::Polar: polar_lanes(s, b); break;
+        case FemRotation::QR: qr_lanes(s, b); break;
+        default:
+            for (int l = 0; l < L; ++l) set_lane_matrix(b.R, l, Mat3::Identity());
+            break;
+    }
+    for (int l = 0; l < b.count; ++l) s.rotation[first + std::size_t(l)] = lane_matrix(b.R, l);
+}
+
+}  // namespace
+
 void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
-                bool rotate, std::vector<Vec3>* f, bool assemble) {
+                bool rotate, std::vector<Vec3>* f, bool assemble, ParallelRegion* region) {
     if (assemble) s.stiffness.set_zero();
+    const bool rotated = rotate;
+    if (rotate && region && region->workers() > 1 && s.order == 1 && s.size() >= std::size_t(4 * L)) {
+        // The polar iterations are most of the loop and touch only their own element: on the workers.
+        // The loop below then reads the rotations as kept ones.
+        const int batches = int((s.size() + L - 1) / L);
+        region->for_each(batches, 8, [&](int begin, int end, int) {
+            Batch rb;
+            for (int k = begin; k < end; ++k) {
+                gather(s, x, std::size_t(k) * L, rb);
+                rotate_batch(s, method, std::size_t(k) * L, rb);
+            }
+        });
+        rotate = false;
+    }
     int inverted = 0;
     Batch b;
     for (std::size_t first = 0; first < s.size(); first += L) {
@@ -323,14 +354,7 @@ void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>
             for (int l = 0; l < L; ++l)
                 set_lane_matrix(b.R, l, l < b.count ? s.rotation[first + std::size_t(l)] : Mat3::Identity());
         } else {
-            switch (method) {
-                case FemRotation::Polar: polar_lanes(s, b); break;
-                case FemRotation::QR: qr_lanes(s, b); break;
-                default:
-                    for (int l = 0; l < L; ++l) set_lane_matrix(b.R, l, Mat3::Identity());
-                    break;
-            }
-            for (int l = 0; l < b.count; ++l) s.rotation[first + std::size_t(l)] = lane_matrix(b.R, l);
+            rotate_batch(s, method, first, b);
         }
         if (s.order == 2) {
             for (int l = 0; l < b.count; ++l) {
@@ -344,7 +368,7 @@ void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>
         if (f) force_lanes(s, b, v, beta, *f);
         if (assemble) stiffness_lanes(s, b);
     }
-    if (rotate) s.inverted = inverted;
+    if (rotated) s.inverted = inverted;
     if (assemble) s.assembled = true;
 }
 
