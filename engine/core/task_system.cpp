@@ -121,8 +121,9 @@ void ParallelRegion::work_on(std::uint32_t seq, int worker) {
 
 void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
     assert(std::this_thread::get_id() == owner_ && "stages are published by the thread that called run()");
-    // A few blocks per worker balance uneven items without many claims.
-    const int most = std::min<int>(4 * workers_, int(kBlockMask));
+    // Eight blocks per worker at most balance uneven items (the stage's last block is what the other
+    // workers wait for) without many claims (rigid/soft_step_solver.cpp, kBatchesPerBlock, has figures).
+    const int most = std::min<int>(8 * workers_, int(kBlockMask));
     int blocks = std::min((count + std::max(min_block, 1) - 1) / std::max(min_block, 1), most);
     blocks = std::max(blocks, 1);
     block_ = (count + blocks - 1) / blocks;

@@ -82,7 +82,7 @@ public:
     /// a stage's `worker` need this many entries.
     int workers() const { return workers_; }
 
-    /// A stage: fn(begin, end, worker) over items [0, count) in blocks (about count / (4 workers), at
+    /// A stage: fn(begin, end, worker) over items [0, count) in blocks (about count / (8 workers), at
     /// least min_block items unless the count is not a multiple), on this thread and the helpers; returns
     /// when every block is done. Outside run() or with one worker it is fn(0, count, 0). Only the thread
     /// that called run() publishes stages (no stage inside a stage). If a block throws, the stage's other
