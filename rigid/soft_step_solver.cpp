@@ -221,9 +221,10 @@ private:
     void store_impulses(RigidSystem& sys) const;
     BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
     void bodies_to_state(RigidSystem::State& st) const;
-    void bodies_from_state(const RigidSystem::State& st);
     // The last sub-step is finished in finish_step(), after the pipeline's coupling hooks.
-    void integrate_and_relax(RigidSystem& sys);
+    /// The sub-step's positions, the sources told, then relax. With `load`, each body's velocities are
+    /// first taken from the system's state in the same body stage (finish_step: hooks may have set them).
+    void integrate_and_relax(RigidSystem& sys, bool load = false);
     /// Body s's position and rotation over the sub-step, and its motion since the step began.
     void integrate_body_position(const RigidSystem& sys, RigidSystem::State& st, std::uint32_t s) {
         WideBody& b = bodies_[s];
@@ -260,6 +261,7 @@ private:
     std::vector<std::uint32_t> moving_;
     std::vector<std::uint32_t> moved_in_solve_;  ///< the solve's moving_, when finish_step found them anew
     bool moving_only_ = false;
+    bool any_restitution_ = false;  ///< a manifold of this step's colours has restitution > 0
     template <class F>
     void for_each_body(std::size_t count, F&& f) const;
     bool pending_ = false;
@@ -291,6 +293,7 @@ void SoftStepSolver::colour(RigidSystem& sys) {
     const auto& src = sys.contacts();
     colouring_.reset(st.x.size());
     for (auto& list : by_colour_) list.clear();
+    any_restitution_ = false;
     // Only the manifolds detection handed on: sleeping islands' are neither solved nor read.
     for (const std::uint32_t ci : sys.active_contacts()) {
         const std::uint32_t a = src[ci].body_a, b = src[ci].body_b;
@@ -302,6 +305,7 @@ void SoftStepSolver::colour(RigidSystem& sys) {
             continue;
         }
         by_colour_[colouring_.assign(a, a_moves, b, b_moves)].push_back(ci);
+        any_restitution_ = any_restitution_ || src[ci].restitution > 0;
     }
 }
 
@@ -508,16 +512,6 @@ void SoftStepSolver::bodies_to_state(RigidSystem::State& st) const {
         const WideBody& b = bodies_[s];
         st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
         st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
-    });
-}
-
-void SoftStepSolver::bodies_from_state(const RigidSystem::State& st) {
-    for_each_body(st.v.size(), [&](std::size_t s) {
-        WideBody& b = bodies_[s];
-        for (int i = 0; i < 3; ++i) {
-            b.v[i] = st.v[s][i];
-            b.w[i] = st.w[s][i];
-        }
     });
 }
 
@@ -760,11 +754,20 @@ void SoftStepSolver::solve_in_region(RigidSystem& sys, Real h) {
     pending_ = true;
 }
 
-void SoftStepSolver::integrate_and_relax(RigidSystem& sys) {
+void SoftStepSolver::integrate_and_relax(RigidSystem& sys, bool load) {
     RigidSystem::State& st = sys.state();
     const std::size_t nb = st.x.size();
     // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
-    for_each_body(nb, [&](std::size_t s) { integrate_body_position(sys, st, std::uint32_t(s)); });
+    for_each_body(nb, [&](std::size_t s) {
+        if (load) {
+            WideBody& b = bodies_[s];
+            for (int i = 0; i < 3; ++i) {
+                b.v[i] = st.v[s][i];
+                b.w[i] = st.w[s][i];
+            }
+        }
+        integrate_body_position(sys, st, std::uint32_t(s));
+    });
     // The outside sources move their own bodies over the same sub-step, then relax with the contacts.
     const BodyVelocities vel = body_view();
     for (ConstraintRows* rows : sys.row_sources()) rows->positions_advanced(sys, vel, h_sub_);
@@ -784,9 +787,9 @@ void SoftStepSolver::finish_in_region(RigidSystem& sys) {
     // found again, as the solve found them (the solve's are kept: their rows are cleared next step).
     std::swap(moved_in_solve_, moving_);
     find_moving(st);
-    bodies_from_state(st);
-    integrate_and_relax(sys);
-    restitution(sys.settings().restitution_threshold);
+    integrate_and_relax(sys, true);
+    // A restitution pass is a stage per colour: none when no contact of the step bounces.
+    if (any_restitution_) restitution(sys.settings().restitution_threshold);
     for_each_body(st.v.size(), [&](std::size_t s) {
         if (st.inv_mass[s] == 0) return;
         const WideBody& b = bodies_[s];
