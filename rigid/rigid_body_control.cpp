@@ -26,8 +26,7 @@ void RigidSystem::drop_contacts_of(std::uint32_t s) {
     pair_layout_valid_ = false;  // offsets moved: the next detection finds each pair's manifolds by key
     // Should this happen between detection and the solve, every manifold left is handed to the solver
     // (sleeping ones are immovable there, so that costs time, not results).
-    active_contacts_.resize(contacts_.size());
-    for (std::size_t i = 0; i < contacts_.size(); ++i) active_contacts_[i] = std::uint32_t(i);
+    list_active_contacts();  // every manifold left
 }
 
 MassProperties RigidSystem::dynamic_mass_properties(std::uint32_t s, const char* where) const {

@@ -78,6 +78,10 @@ void RigidSystem::detect_collisions(Real h) {
 
 void RigidSystem::detect_in_region(Real h) {
     const Real margin = settings_.contact_margin;
+    // pair_work_ describes contacts_ again only once this detection has finished: one that throws
+    // leaves the next to find each pair's manifolds by key.
+    const bool layout_was_valid = pair_layout_valid_;
+    pair_layout_valid_ = false;
     // Broad phase: refit proxies of moving bodies; resting ones stay inside their fat boxes for free.
     // Their boxes on the workers, the tree (a body's box left its fat box: re-inserted) on this thread.
     const std::size_t slots = slots_.size();
@@ -126,7 +130,7 @@ void RigidSystem::detect_in_region(Real h) {
     // While the pair list stands, each pair's manifolds are where the last step put them; else a merge
     // join of the two lists, both sorted by key, finds them (reading every manifold's key: 50,000 boxes
     // asleep spent about 1.5 ms a step on it).
-    const bool same_pairs = pair_layout_valid_ && !pairs_rebuilt && pair_work_.size() == np;
+    const bool same_pairs = layout_was_valid && !pairs_rebuilt && pair_work_.size() == np;
     pair_work_.resize(np);
     std::size_t prev_i = 0;
     for (std::size_t i = 0; i < np; ++i) {
@@ -145,6 +149,7 @@ void RigidSystem::detect_in_region(Real h) {
             w.prev_end = std::uint32_t(prev_end);
             w.left_asleep = false;  // not known: it goes to the solver once more
         }
+        w.was_left_asleep = w.left_asleep;
         const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
         const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
         w.asleep = asleep_a && asleep_b;
@@ -199,8 +204,15 @@ void RigidSystem::detect_in_region(Real h) {
 
 void RigidSystem::list_active_contacts() {
     // What the solve sees: pairs with a body awake now (a sleeping pair in an island just woken counts),
-    // and sleeping pairs once, in the step they fell asleep.
+    // and sleeping pairs once, in the step they fell asleep. Listed again if a body wakes between
+    // detection and the solve (a coupling hook, a pre-solve callback): the same step's answer then.
+    active_stale_ = false;
     active_contacts_.clear();
+    if (!pair_layout_valid_) {
+        // Contacts were dropped since detection: every manifold left (sleeping ones are immovable).
+        for (std::size_t i = 0; i < contacts_.size(); ++i) active_contacts_.push_back(std::uint32_t(i));
+        return;
+    }
     for (std::size_t i = 0; i < pair_work_.size(); ++i) {
         PairWork& w = pair_work_[i];
         bool woken = false;
@@ -208,7 +220,7 @@ void RigidSystem::list_active_contacts() {
             const std::uint32_t a = std::uint32_t(pair_keys_[i] >> 32), b = std::uint32_t(pair_keys_[i] & 0xFFFFFFFFu);
             woken = (type_[a] != BodyType::Static && awake_[a]) || (type_[b] != BodyType::Static && awake_[b]);
         }
-        const bool active = !w.asleep || !w.left_asleep || woken;
+        const bool active = !w.asleep || !w.was_left_asleep || woken;
         w.left_asleep = w.asleep && !woken;
         if (active)
             for (std::uint32_t k = 0; k < w.stored; ++k) active_contacts_.push_back(w.offset + k);

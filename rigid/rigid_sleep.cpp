@@ -26,6 +26,7 @@ void RigidSystem::wake_island(std::uint32_t s) {
         return;
     }
     // Islands are from the last update_sleep(); waking is rare, so a linear scan is fine.
+    active_stale_ = true;  // between detection and the solve, the island's manifolds join this step's
     std::uint32_t root = find_root(s);
     for (std::uint32_t i = 0; i < slots_.size(); ++i)
         if (slots_.alive(i) && type_[i] == BodyType::Dynamic && !awake_[i] && enabled_[i] && find_root(i) == root) {
@@ -44,18 +45,26 @@ void RigidSystem::sleep(BodyId id) {
     if (type_[s] != BodyType::Dynamic)
         throw RigidError(std::string("sleep: only dynamic bodies sleep, body {index ") + std::to_string(s) + "} is " +
                          body_type_name(type_[s]));
+    if (!awake_[s]) return;  // its island sleeps already
     // The island from the last update_sleep() (a body created since is its own island).
     const std::uint32_t root = find_root(s);
+    std::vector<std::uint32_t> members;
     for (std::uint32_t i = 0; i < slots_.size(); ++i)
-        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && awake_[i] && (i == s || find_root(i) == root)) {
-            awake_[i] = false;
-            sleep_timer_[i] = 0;
-            state_.v[i].setZero();
-            state_.w[i].setZero();
-        }
+        if (slots_.alive(i) && type_[i] == BodyType::Dynamic && awake_[i] && (i == s || find_root(i) == root))
+            members.push_back(i);
+    // A sleeping island keeps its union-find links until it wakes: linked to s itself, not through a
+    // slot (the last root) that may since have been destroyed, disabled or turned static.
+    for (const std::uint32_t i : members) {
+        awake_[i] = false;
+        sleep_timer_[i] = 0;
+        state_.v[i].setZero();
+        state_.w[i].setZero();
+        island_[i] = s;
+    }
 }
 
 void RigidSystem::update_sleep(Real h) {
+    refresh_active_contacts();  // a hook may have woken an island since detection
     const std::size_t n = slots_.size();
     auto counts = [&](std::uint32_t s) { return slots_.alive(s) && type_[s] == BodyType::Dynamic && enabled_[s]; };
     // A joint from an awake body to a sleeping one wakes the sleeping island: nothing in an awake island

@@ -87,6 +87,7 @@ void RigidSystem::run_stage(Stage stage, const StepContext& ctx) {
             break;
         case Stage::DetectCollisions: detect_collisions(ctx.h); break;
         case Stage::SolveVelocities:
+            refresh_active_contacts();  // a coupling hook may have woken an island since detection
             compute_support_levels();
             solver_->solve_velocities(*this, ctx.h);
             unintegrated_time_ = solver_->unintegrated_time_after_solve(ctx.h);

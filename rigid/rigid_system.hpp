@@ -478,10 +478,16 @@ private:
         std::uint32_t stored;  ///< how many it has there after pass 4
         int worker;
         bool asleep;
-        bool left_asleep;  ///< a sleeping pair of the last step, already out of the active contacts
+        bool left_asleep;      ///< a sleeping pair this step, out of the active contacts from the next one
+        bool was_left_asleep;  ///< left_asleep as the last step ended (the active list reads this)
     };
     /// pair_work_ describes contacts_ as it is (false after a body's contacts were dropped).
     bool pair_layout_valid_ = false;
+    /// A body woke since active_contacts_ was listed: list it again before the solve reads it.
+    bool active_stale_ = false;
+    void refresh_active_contacts() {
+        if (active_stale_) list_active_contacts();
+    }
     /// Pass 4: the manifolds of sleeping pairs moved to their new offsets within contacts_.
     void move_sleeping_manifolds();
     static constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;

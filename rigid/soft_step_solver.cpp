@@ -787,6 +787,11 @@ void SoftStepSolver::finish_in_region(RigidSystem& sys) {
     // found again, as the solve found them (the solve's are kept: their rows are cleared next step).
     std::swap(moved_in_solve_, moving_);
     find_moving(st);
+    // A body the solve moved that no longer moves (a hook stopped a kinematic body): its row takes the
+    // state's velocity too, since the relax reads it for contacts against the body.
+    for (const std::uint32_t s : moved_in_solve_)
+        if (st.inv_mass[s] == 0 && st.v[s] == Vec3::Zero() && st.w[s] == Vec3::Zero())
+            for (int i = 0; i < 3; ++i) bodies_[s].v[i] = bodies_[s].w[i] = 0;
     integrate_and_relax(sys, true);
     // A restitution pass is a stage per colour: none when no contact of the step bounces.
     if (any_restitution_) restitution(sys.settings().restitution_threshold);
