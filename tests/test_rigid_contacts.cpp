@@ -58,6 +58,19 @@ Real displacement_along_slope(World& w, BodyId id, Real theta) {
     return (w.rigid().transform(id).p - q * Vec3(0, Real(0.5), 0)).dot(down);
 }
 
+/// `count` unit boxes of 1 kg stacked at the origin on the ground (the lowest created first).
+std::vector<BodyId> box_stack(World& w, int count) {
+    std::vector<BodyId> ids;
+    for (int i = 0; i < count; ++i) {
+        BodyDef b;
+        b.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
+        b.pose.p = Vec3(0, Real(0.5) + i, 0);
+        b.mass = 1;
+        ids.push_back(w.rigid().create_body(b));
+    }
+    return ids;
+}
+
 }  // namespace
 
 TEST_CASE("a box on a slope stays below atan(mu) and slides above it at g(sin - mu cos)", "[rigid][friction]") {
@@ -230,14 +243,7 @@ TEST_CASE("a settled stack falls asleep, a box dropped on it wakes the island an
     WorldSettings ws;
     World w(ws);
     add_ground(w);
-    std::vector<BodyId> ids;
-    for (int i = 0; i < 5; ++i) {
-        BodyDef b;
-        b.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
-        b.pose.p = Vec3(0, Real(0.5) + i, 0);
-        b.mass = 1;
-        ids.push_back(w.rigid().create_body(b));
-    }
+    const std::vector<BodyId> ids = box_stack(w, 5);
     for (int i = 0; i < 120; ++i) w.step();
     for (BodyId id : ids) CHECK_FALSE(w.rigid().awake(id));
     const Real top_before = w.rigid().transform(ids.back()).p.y();
@@ -268,14 +274,7 @@ TEST_CASE("a sleeping stack's contacts stay whole while an awake ball ahead of t
     // each landing and rebound moves those.
     World w;
     add_ground(w);
-    std::vector<BodyId> ids;
-    for (int i = 0; i < 4; ++i) {
-        BodyDef b;
-        b.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
-        b.pose.p = Vec3(0, Real(0.5) + i, 0);
-        b.mass = 1;
-        ids.push_back(w.rigid().create_body(b));
-    }
+    const std::vector<BodyId> ids = box_stack(w, 4);
     for (int i = 0; i < 120; ++i) w.step();
     for (BodyId id : ids) REQUIRE_FALSE(w.rigid().awake(id));
     std::vector<Vec3> rest;
@@ -324,14 +323,7 @@ TEST_CASE("a sleeping stack woken by a hook between detection and the solve keep
     // before the solve, or the stack would fall freely for a step (g h^2 = 2.7 mm).
     World w;
     add_ground(w);
-    std::vector<BodyId> ids;
-    for (int i = 0; i < 3; ++i) {
-        BodyDef b;
-        b.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
-        b.pose.p = Vec3(0, Real(0.5) + i, 0);
-        b.mass = 1;
-        ids.push_back(w.rigid().create_body(b));
-    }
+    const std::vector<BodyId> ids = box_stack(w, 3);
     for (int i = 0; i < 150; ++i) w.step();
     for (BodyId id : ids) REQUIRE_FALSE(w.rigid().awake(id));
     for (int i = 0; i < 5; ++i) w.step();  // the transition step is over: the stack is out of the solve
@@ -353,14 +345,7 @@ TEST_CASE("an island put to sleep after its lowest body was destroyed does not w
     // was called on, not through the slot of a destroyed body another body may reuse.
     World w;
     add_ground(w);
-    std::vector<BodyId> ids;
-    for (int i = 0; i < 3; ++i) {
-        BodyDef b;
-        b.shape = make_box(Vec3(Real(0.5), Real(0.5), Real(0.5)));
-        b.pose.p = Vec3(0, Real(0.5) + i, 0);
-        b.mass = 1;
-        ids.push_back(w.rigid().create_body(b));
-    }
+    const std::vector<BodyId> ids = box_stack(w, 3);
     for (int i = 0; i < 10; ++i) w.step();  // one awake island, rooted at the lowest box
     const std::uint32_t lowest = ids[0].index;
     w.rigid().destroy_body(ids[0]);
