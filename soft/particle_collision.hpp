@@ -69,6 +69,8 @@ private:
     std::vector<std::uint32_t> candidates_;  ///< scratch of begin(): colliders near the body
     std::vector<Plane> planes_;              ///< by collider (in candidate order), then by particle
     std::vector<Transform> found_at_;        ///< by collider index: its pose when the planes were found
+    std::vector<Transform> start_at_;        ///< scratch of begin(): candidates' poses at the start of the step
+    std::vector<Aabb> swept_;                ///< scratch of begin(): each collider's box over the step
     /// Per particle: the net position correction project_positions() made this step (push and friction,
     /// m). A position-based method (Verlet) absorbs the approach velocity in these pushes; finish() counts
     /// its normal part over h as normal velocity change (restitution, friction budget) and reports
