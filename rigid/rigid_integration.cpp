@@ -157,10 +157,7 @@ bool RigidSystem::state_is_sound(std::uint32_t s) const {
 
 void RigidSystem::contain_non_finite() {
     for (std::uint32_t s = 0; s < slots_.size(); ++s) {
-        // A sleeping body has not moved since it was checked awake.
-        if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
-        // A finite orientation far from unit length (zero, after normalising an overflowed one) is as
-        // broken as a NaN: every later rotation of the body is.
+        if (state_is_sound(s)) continue;
         const Real q2 = state_.q[s].squaredNorm();
         const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
         std::string what;
@@ -170,10 +167,8 @@ void RigidSystem::contain_non_finite() {
             what = "orientation is not a unit quaternion (|q|^2 = " + to_text(q2) + ")";
         else if (!(state_.v[s].squaredNorm() < fast))
             what = "speed " + to_text(state_.v[s].stableNorm()) + " m/s is not finite or beyond " + to_text(kBlowUpSpeed);
-        else if (!(state_.w[s].squaredNorm() < fast))
-            what = "spin " + to_text(state_.w[s].stableNorm()) + " rad/s is not finite or beyond " + to_text(kBlowUpSpeed);
         else
-            continue;
+            what = "spin " + to_text(state_.w[s].stableNorm()) + " rad/s is not finite or beyond " + to_text(kBlowUpSpeed);
         // Back where the step found it, at rest (a body created during the step: where it was created,
         // create_body writes its start pose).
         if (s < start_x_.size() && start_x_[s].allFinite() && std::abs(start_q_[s].squaredNorm() - 1) < Real(0.1)) {

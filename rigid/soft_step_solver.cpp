@@ -160,6 +160,18 @@ SimdKernel widest_kernel() {
 
 std::atomic<SimdKernel> g_kernel{SimdKernel::Auto};
 
+/// Body s's velocities between the system's state and the solver's row.
+void state_from_row(RigidSystem::State& st, std::uint32_t s, const WideBody& b) {
+    st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
+    st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+}
+void row_from_state(WideBody& b, const RigidSystem::State& st, std::uint32_t s) {
+    for (int j = 0; j < 3; ++j) {
+        b.v[j] = st.v[s][j];
+        b.w[j] = st.w[s][j];
+    }
+}
+
 class SoftStepSolver final : public RigidSolver {
 public:
     bool integrates_itself() const override { return true; }
@@ -509,9 +521,7 @@ void SoftStepSolver::for_each_body(std::size_t count, F&& f) const {
 
 void SoftStepSolver::bodies_to_state(RigidSystem::State& st) const {
     for_each_body(st.v.size(), [&](std::size_t s) {
-        const WideBody& b = bodies_[s];
-        st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
-        st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+        state_from_row(st, std::uint32_t(s), bodies_[s]);
     });
 }
 
@@ -620,22 +630,10 @@ void SoftStepSolver::substeps_of_block(RigidSystem& sys, int b, int worker, int 
     // batches alone (no outside rows: plan_blocks found none active).
     for (int i = 0; i < n_sub; ++i) {
         for (std::size_t k = 0; k < count; ++k) {
-            const std::uint32_t s = bodies[k];
-            WideBody& wb = bodies_[s];
-            if (i > 0) {
-                st.v[s] = Vec3(wb.v[0], wb.v[1], wb.v[2]);
-                st.w[s] = Vec3(wb.w[0], wb.w[1], wb.w[2]);
-            }
+            if (i > 0) state_from_row(st, bodies[k], bodies_[bodies[k]]);
         }
         sys.integrate_velocities_of(bodies, count, h_sub_);
-        for (std::size_t k = 0; k < count; ++k) {
-            const std::uint32_t s = bodies[k];
-            WideBody& wb = bodies_[s];
-            for (int j = 0; j < 3; ++j) {
-                wb.v[j] = st.v[s][j];
-                wb.w[j] = st.w[s][j];
-            }
-        }
+        for (std::size_t k = 0; k < count; ++k) row_from_state(bodies_[bodies[k]], st, bodies[k]);
         if (set.warm_starting) {
             block_colours(b, [&](WideContact* c, std::size_t n) { kernels_.warm_start(c, n, bodies_.data(), scratch); });
         } else if (i > 0) {
@@ -656,10 +654,7 @@ void SoftStepSolver::substeps_of_block(RigidSystem& sys, int b, int worker, int 
         });
     }
     for (std::size_t k = 0; k < count; ++k) {
-        const std::uint32_t s = bodies[k];
-        const WideBody& wb = bodies_[s];
-        st.v[s] = Vec3(wb.v[0], wb.v[1], wb.v[2]);
-        st.w[s] = Vec3(wb.w[0], wb.w[1], wb.w[2]);
+        state_from_row(st, bodies[k], bodies_[bodies[k]]);
     }
 }
 
@@ -724,16 +719,9 @@ void SoftStepSolver::solve_in_region(RigidSystem& sys, Real h) {
         region_->for_each(int(moving_.size()), kBodiesPerBlock, [&](int begin, int end, int) {
             for (int k = begin; k < end; ++k) {
                 const std::uint32_t s = moving_[std::size_t(k)];
-                WideBody& b = bodies_[s];
-                if (i > 0) {
-                    st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
-                    st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
-                }
+                if (i > 0) state_from_row(st, s, bodies_[s]);
                 sys.integrate_velocities_of(&s, 1, h_sub);
-                for (int j = 0; j < 3; ++j) {
-                    b.v[j] = st.v[s][j];
-                    b.w[j] = st.w[s][j];
-                }
+                row_from_state(bodies_[s], st, s);
             }
         });
         if (set.warm_starting)
@@ -759,13 +747,7 @@ void SoftStepSolver::integrate_and_relax(RigidSystem& sys, bool load) {
     const std::size_t nb = st.x.size();
     // Positions (kinematic bodies move with their velocity; static and sleeping ones have none).
     for_each_body(nb, [&](std::size_t s) {
-        if (load) {
-            WideBody& b = bodies_[s];
-            for (int i = 0; i < 3; ++i) {
-                b.v[i] = st.v[s][i];
-                b.w[i] = st.w[s][i];
-            }
-        }
+        if (load) row_from_state(bodies_[s], st, std::uint32_t(s));
         integrate_body_position(sys, st, std::uint32_t(s));
     });
     // The outside sources move their own bodies over the same sub-step, then relax with the contacts.
@@ -796,10 +778,7 @@ void SoftStepSolver::finish_in_region(RigidSystem& sys) {
     // A restitution pass is a stage per colour: none when no contact of the step bounces.
     if (any_restitution_) restitution(sys.settings().restitution_threshold);
     for_each_body(st.v.size(), [&](std::size_t s) {
-        if (st.inv_mass[s] == 0) return;
-        const WideBody& b = bodies_[s];
-        st.v[s] = Vec3(b.v[0], b.v[1], b.v[2]);
-        st.w[s] = Vec3(b.w[0], b.w[1], b.w[2]);
+        if (st.inv_mass[s] != 0) state_from_row(st, std::uint32_t(s), bodies_[s]);
     });
     moving_only_ = false;
     store_impulses(sys);
