@@ -50,6 +50,7 @@
 
 #include "soft/fem_elements.hpp"
 #include "soft/ldlt_solve.hpp"
+#include "soft/particle_collision.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -58,6 +59,10 @@ namespace sinew {
 namespace {
 
 constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no direction below it
+// Contacts inside the global step: CG over the touching particles stops when every gap is within this
+// fraction of the particle's thickness, or after this many products (each one more pair of solves).
+constexpr double kContactTolerance = 0.01;
+constexpr int kContactIterations = 20;
 
 // Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
 double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
@@ -207,6 +212,92 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
     ldlt_solve_in_place<3>(c.ldlt.matrixL().nestedExpression(), c.inv_d, b.data());
 }
 
+// Contacts inside the global step (issue 14: seed 002 treats collisions as constraints of the
+// minimisation, not as a projection after it). The step's collision planes of free particles become rows
+// n · x_r >= offset (the plane lifted by the particle's thickness), each with a normal force λ on the
+// right-hand side, A x = b + N λ. As Baraff & Witkin (1998 §5.3) do for implicit Euler, a contact is an
+// equality while it is active and is released for the next step when its force pulls: a particle whose
+// plane pulled last step (`released`) is left to the contact pass this step.
+void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision& collision) {
+    c.contacts.clear();
+    if (c.released.size() != b.p.size()) c.released.assign(b.p.size(), 0);
+    for (std::size_t k = 0; k < collision.plane_count(); ++k) {
+        const ParticleCollision::PlaneView pl = collision.plane(k);
+        const int r = c.row[pl.particle];
+        if (r < 0 || c.released[pl.particle]) continue;  // pinned or attached: not an unknown
+        c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness), 0.0});
+    }
+    std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));
+}
+
+// The contact forces so far, N λ (signed), on the right-hand side: each local/global iteration's global
+// step starts from them.
+void add_contact_forces(FastMassSpringCache& c) {
+    for (const FastMassSpringCache::ContactRow& k : c.contacts)
+        if (k.force != 0)
+            for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(k.row) + a] += k.force * double(k.normal[a]);
+}
+
+// Holds the global step's solution X (in c.rhs) on the collision planes: the contacts that X penetrates,
+// or that already hold a force, get force changes Δλ with n_k · (X + A⁻¹ N Δλ)_k = offset_k, solved by
+// conjugate gradients on the Schur complement S = Nᵀ A⁻¹ N (symmetric positive definite: A is), each
+// product one more pair of triangular solves. A contact force spreads through A⁻¹ over the whole body:
+// the links carry the reaction in the same step, where a projection after the solve stops the touching
+// particle alone and its links learn of it a step later (a fast mass-spring pressure ball crumpled to a
+// quarter of its volume on landing that way). Stops when every active gap is within `tolerance` (m) or
+// after `max_iterations` products. The forces stay signed, and X agrees with them: clamping a pulling
+// force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate in
+// sign between neighbours) and launch the body; a pull is released for the next step instead.
+int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) {
+    const std::size_t m = c.contacts.size();
+    c.cg_r.resize(m);
+    c.cg_p.resize(m);
+    c.cg_q.resize(m);
+    c.cg_u.resize(c.rhs.size());
+    // Residual r = offset - n · X over the active contacts (0 elsewhere: they stay out of the solve).
+    double rr = 0, worst = 0;
+    for (std::size_t k = 0; k < m; ++k) {
+        const FastMassSpringCache::ContactRow& ct = c.contacts[k];
+        const double* x = &c.rhs[3 * std::size_t(ct.row)];
+        const double gap = double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2] - ct.offset;
+        c.cg_r[k] = gap < 0 || ct.force != 0 ? -gap : 0.0;
+        c.cg_p[k] = c.cg_r[k];
+        rr += c.cg_r[k] * c.cg_r[k];
+        worst = std::max(worst, std::abs(c.cg_r[k]));
+    }
+    int it = 0;
+    for (; it < max_iterations && worst > tolerance; ++it) {
+        // u = A⁻¹ N p, q = Nᵀ u.
+        std::fill(c.cg_u.begin(), c.cg_u.end(), 0.0);
+        for (std::size_t k = 0; k < m; ++k)
+            if (c.cg_p[k] != 0)
+                for (int a = 0; a < 3; ++a) c.cg_u[3 * std::size_t(c.contacts[k].row) + a] += c.cg_p[k] * double(c.contacts[k].normal[a]);
+        solve_in_place(c, c.cg_u);
+        double pq = 0;
+        for (std::size_t k = 0; k < m; ++k) {
+            const FastMassSpringCache::ContactRow& ct = c.contacts[k];
+            const double* u = &c.cg_u[3 * std::size_t(ct.row)];
+            c.cg_q[k] = c.cg_p[k] == 0 ? 0.0 : double(ct.normal[0]) * u[0] + double(ct.normal[1]) * u[1] + double(ct.normal[2]) * u[2];
+            pq += c.cg_p[k] * c.cg_q[k];
+        }
+        if (!(pq > 0)) break;
+        const double alpha = rr / pq;
+        double rr_next = 0;
+        worst = 0;
+        for (std::size_t k = 0; k < m; ++k) {
+            c.contacts[k].force += alpha * c.cg_p[k];
+            c.cg_r[k] -= alpha * c.cg_q[k];
+            rr_next += c.cg_r[k] * c.cg_r[k];
+            worst = std::max(worst, std::abs(c.cg_r[k]));
+        }
+        for (std::size_t i = 0; i < c.rhs.size(); ++i) c.rhs[i] += alpha * c.cg_u[i];
+        const double beta = rr_next / rr;
+        rr = rr_next;
+        for (std::size_t k = 0; k < m; ++k) c.cg_p[k] = c.cg_r[k] + beta * c.cg_p[k];
+    }
+    return it;
+}
+
 }  // namespace
 
 void predict_fast_mass_spring(SoftBody& b, Real h) {
@@ -245,7 +336,7 @@ void predict_fast_mass_spring(SoftBody& b, Real h) {
     }
 }
 
-void solve_fast_mass_spring(SoftBody& b, Real h) {
+void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     FastMassSpringCache& c = *b.fms_cache;  // made by predict_fast_mass_spring
     Particles& p = b.p;
     const std::size_t n = p.size(), m = b.links.size();
@@ -280,6 +371,9 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
         }
     }
     const int iterations = c.inv_d.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
+    c.contacts.clear();
+    if (collision && iterations > 0) gather_contacts(b, c, *collision);
+    c.contact_iterations = 0;
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
         for (std::size_t j = 0; j < m; ++j) {
@@ -304,7 +398,10 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
                 for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(rb) + a] -= k * double(d[a]);
         }
         if (b.fem) add_tet_projections(b, c);
+        add_contact_forces(c);
         solve_in_place(c, c.rhs);
+        if (!c.contacts.empty())
+            c.contact_iterations += hold_contacts(c, kContactTolerance * double(b.def.thickness), kContactIterations);
         for (std::size_t i = 0; i < n; ++i) {
             const int r = c.row[i];
             if (r >= 0) {
@@ -312,6 +409,13 @@ void solve_fast_mass_spring(SoftBody& b, Real h) {
                 p.x[i] = Vec3(Real(xr[0]), Real(xr[1]), Real(xr[2]));
             }
         }
+    }
+
+    // The impulse each plane held its particle with, for the contact pass (friction, restitution, reports);
+    // one that pulled is released for the next step.
+    for (const FastMassSpringCache::ContactRow& ct : c.contacts) {
+        collision->set_held(ct.plane, Real(ct.force * double(h)));
+        if (ct.force < 0) c.released[ct.particle] = 1;
     }
 
     const Real inv_h = Real(1) / h;

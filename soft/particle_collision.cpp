@@ -29,6 +29,7 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     colliders_ = &colliders;
     candidates_.clear();
     planes_.clear();
+    held_.clear();
     correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
     // How far a particle may get this step: its speed and the largest acceleration (gravity plus the
@@ -106,6 +107,7 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
             if (found) planes_.push_back({i, c, s, n});
         }
     }
+    held_.assign(planes_.size(), Real(0));
 }
 
 Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal,
@@ -169,14 +171,16 @@ int ParticleCollision::project_positions(SoftBody& b, Real h) {
 void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std::vector<ParticleContact>& out) {
     const Real r = b.def.thickness;
     const bool position_friction = soft_stages_of(b).position_friction;  // project_positions
-    for (const Plane& pl : planes_) {
+    for (std::size_t k = 0; k < planes_.size(); ++k) {
+        const Plane& pl = planes_[k];
         const Collider& col = (*colliders_)[pl.collider];
         const std::uint32_t i = pl.particle;
         Vec3& x = b.p.x[i];
         Vec3 n, s;
         const Real d = world_plane(pl, col, x, n, s);
-        // What the contact did to the particle this step: `dv` from this pass and the position corrections
-        // of the relaxation (as a velocity change over h), counted once, by the particle's first contact.
+        // What the contact did to the particle this step: `dv` from this pass, the position corrections
+        // of the relaxation (as a velocity change over h), counted once, by the particle's first contact,
+        // and the impulse a solve held it with on this plane (set_held).
         const auto record = [&](const Vec3& dv, Real depth) {
             ParticleContact pc;
             pc.body = body_slot;
@@ -185,7 +189,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             pc.normal = n;
             pc.point = s;
             pc.depth = std::max(Real(0), depth);
-            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h);
+            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h) + held_[k] * n;
             correction_[i].setZero();
             out.push_back(pc);
         };
@@ -193,7 +197,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             // Out of reach now, but the relaxation pushed it during the step (its links pulled it away
             // since): that push is in its velocity, so it is reported, or a coupling layer sending the
             // reactions back would lose it (0.2% of a Verlet cloth's momentum per impact).
-            if (!correction_[i].isZero()) record(Vec3::Zero(), 0);
+            if (!correction_[i].isZero() || held_[k] != 0) record(Vec3::Zero(), 0);
             continue;
         }
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
@@ -209,11 +213,17 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         // normal, over h (net, not the sum of every sweep's push: links pulling a resting particle back in
         // each sweep must not look like an impact).
         const Real pushed_speed = std::max(Real(0), correction_[i].dot(n)) / h;
-        const Real held = b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i];  // held by the solve's constraint
-        if (vn >= 0 && depth <= 0 && correction_[i].isZero() && held == 0) continue;  // near but separating: not a contact
+        // Normal velocity change the solve's constraint already made: an implicit solve's per particle
+        // (SoftBody::contact_dvn), a fast mass-spring solve's per plane (set_held).
+        const Real held_here = held_[k] * b.p.inv_mass[i];
+        const Real held = (b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i]) + std::max(Real(0), held_here);
+        if (vn >= 0 && depth <= 0 && correction_[i].isZero() && held == 0 && held_here == 0)
+            continue;  // near but separating: not a contact
         Vec3 dv = Vec3::Zero();
         const Real removed = std::max(Real(0), -vn);  // approach this pass removes
-        const Real approach = removed + pushed_speed;
+        // A plane held inside the solve took the approach there: it counts for restitution as the
+        // relaxation's pushes do.
+        const Real approach = removed + pushed_speed + std::max(Real(0), held_here);
         // Remove the approach; above the threshold reflect it scaled by e (Jakobsen reflects the old
         // position across the contact plane).
         const Real dvn = removed + (approach > kRestitutionThreshold ? e * approach : Real(0));

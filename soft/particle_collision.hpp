@@ -51,6 +51,10 @@ public:
     std::size_t plane_count() const { return planes_.size(); }
     /// Plane k (k < plane_count()), grouped by collider, then by particle.
     PlaneView plane(std::size_t k) const;
+    /// A method that holds its particles on their planes inside its own solve (fast mass-spring) records
+    /// the normal impulse plane k applied there (N s, >= 0): finish() counts it as normal velocity change
+    /// (friction budget, restitution) and reports it in the contact's impulse.
+    void set_held(std::size_t k, Real impulse) { held_[k] = impulse; }
 
 private:
     /// A particle's collision plane against one collider, in the world at the collider's pose when it
@@ -76,6 +80,8 @@ private:
     /// its normal part over h as normal velocity change (restitution, friction budget) and reports
     /// correction * m / h in the particle's first contact impulse.
     std::vector<Vec3> correction_;
+    /// Per plane: the normal impulse a solve held it with (set_held), 0 if none.
+    std::vector<Real> held_;
 };
 
 }  // namespace sinew

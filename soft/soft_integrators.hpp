@@ -50,8 +50,9 @@ void predict_verlet(SoftBody& b, Real h);
 void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision);
 /// Liu 2013's inertial term y (and its factorisation if stale) and the first iterate, x_prev = x_n.
 void predict_fast_mass_spring(SoftBody& b, Real h);
-/// Liu 2013's local/global iterations from the predicted positions, and v = (x - x_prev) / h.
-void solve_fast_mass_spring(SoftBody& b, Real h);
+/// Liu 2013's local/global iterations from the predicted positions, and v = (x - x_prev) / h. With
+/// `collision`, each global step holds the particles on their collision planes (soft/fast_mass_spring.cpp).
+void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision = nullptr);
 /// A velocity change dv of particle i after predict_fast_mass_spring (a coupling impulse): the predicted
 /// position and the inertial term y move by h dv, so the iterations do not pull the particle back.
 void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h);

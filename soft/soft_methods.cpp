@@ -15,8 +15,8 @@ void solve_long_range_only(SoftBody& b, Real, ParticleCollision*) {
     if (!b.lra.empty()) apply_long_range_attachments(b);
 }
 
-void solve_fast_mass_spring_stage(SoftBody& b, Real h, ParticleCollision*) {
-    solve_fast_mass_spring(b, h);
+void solve_fast_mass_spring_stage(SoftBody& b, Real h, ParticleCollision* collision) {
+    solve_fast_mass_spring(b, h, collision);
     if (!b.lra.empty()) apply_long_range_attachments(b);
 }
 

@@ -105,6 +105,22 @@ struct FastMassSpringCache {
     std::vector<double> rhs;      ///< 3 per row: inertia + J p, solved in place into the positions
     std::vector<Vec3> dir;        ///< p_j = L_j d̂_j per link (kept when a link has zero length)
     std::vector<Vec3> force;      ///< explicit forces that are not constant in time (pressure), per step
+
+    /// The contact planes held inside the global step (soft/fast_mass_spring.cpp, "Contacts"): scratch
+    /// kept between steps so the solve does not allocate once the contact count has been reached.
+    struct ContactRow {
+        std::uint32_t plane;   ///< index into the step's ParticleCollision planes
+        std::uint32_t particle;
+        int row;               ///< the particle's row of the system
+        Vec3 normal;
+        double offset;         ///< n · x >= offset: the plane lifted by the particle's thickness
+        double force;          ///< λ, the normal force it holds the particle with (N); < 0 pulls
+    };
+    std::vector<ContactRow> contacts;
+    std::vector<double> cg_r, cg_p, cg_q;  ///< per contact: residual (m), direction, S p
+    std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
+    std::vector<std::uint8_t> released;    ///< per particle: its plane pulled last step, left to the contact pass
+    int contact_iterations = 0;            ///< CG iterations over the contacts in the last step (tests)
 };
 
 }  // namespace sinew

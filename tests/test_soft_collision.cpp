@@ -164,7 +164,9 @@ TEST_CASE("cloth-drop: no particle ends a step inside the ground or the sphere",
 TEST_CASE("particle friction on a slope: sticks below atan(mu), slides with g(sin - mu cos) above", "[soft][collision]") {
     const Real g = Real(9.81);
     const Real mu = Real(0.5);  // collider 0.5 and particle 0.5: geometric mean 0.5
-    for (SoftMethod method : {SoftMethod::Verlet, SoftMethod::SemiImplicitEuler}) {
+    // Fast mass-spring holds the particle on the plane inside its global step: the friction budget is
+    // the normal impulse that solve applied (ParticleCollision::set_held).
+    for (SoftMethod method : {SoftMethod::Verlet, SoftMethod::SemiImplicitEuler, SoftMethod::FastMassSpring}) {
         for (Real deg : {Real(20), Real(40)}) {
             DYNAMIC_SECTION(soft_method_name(method) << " at " << deg << " degrees") {
                 const Real th = deg * Real(M_PI / 180);
@@ -195,6 +197,84 @@ TEST_CASE("particle friction on a slope: sticks below atan(mu), slides with g(si
                 }
             }
         }
+    }
+}
+
+TEST_CASE("fast mass-spring holds its contacts inside the global step: a resting cloth's contacts carry its weight",
+          "[soft][collision][fast-ms]") {
+    // A 1 kg, 1 m cloth of 16 x 16 nodes at k = 1e4 N/m, laid flat at its thickness on the ground: at
+    // rest every node is held by its plane, so the normal impulses the contact pass reports sum to the
+    // weight's over the step, M g h (within 0.5%: float sums of 256 terms), and nothing sinks or stretches.
+    SoftOnly s;
+    const Shape ground = make_plane(Vec3::UnitY(), 0);
+    s.soft.colliders().push_back(make_collider(ground, {}));
+    ClothGridDesc g;
+    g.nx = g.ny = 16;
+    g.origin = Vec3(Real(-0.5), Real(0.01), Real(-0.5));
+    g.edge_u = Vec3(1, 0, 0);
+    g.edge_v = Vec3(0, 0, 1);
+    g.total_mass = 1;
+    g.material.stretch = g.material.shear = Real(1e4);
+    SoftBodyDef base;
+    base.method = SoftMethod::FastMassSpring;
+    base.iterations = 1;
+    base.thickness = Real(0.01);
+    base.allow_sleep = false;
+    const SoftBodyId id = s.soft.create_body(make_cloth_grid(g, base));
+    const Real h = Real(1) / 60;
+    for (int k = 0; k < 60; ++k) s.pipeline.step(h);
+    Real normal = 0;
+    for (const ParticleContact& c : s.soft.contacts()) normal += c.impulse.dot(c.normal);
+    const Real weight = Real(9.81) * h;  // N s over one step
+    CHECK(normal == Approx(weight).epsilon(0.005));
+    const SoftBody& b = s.soft.body(id);
+    for (const Vec3& x : b.p.x) CHECK(x.y() == Approx(0.01).margin(1e-5));
+    CHECK(b.max_stretch() < Real(1.001));
+}
+
+TEST_CASE("fast mass-spring: a pressure ball keeps its volume through its landing", "[soft][collision][fast-ms][pressure]") {
+    // The bench's pressure-ball (RESULTS.md, soft bodies): a 642-vertex icosphere, r = 0.5 m, 1 kg, edge
+    // links of 1e4 N/m, Matyka's gas P V = P_c = 50 J, dropped from 1 m onto the ground at h = 1/60.
+    // Projected out of the ground after the solve, its bottom stopped alone and the rest ran on: the ball
+    // folded in and stayed at 0.26 of its volume (1 iteration; 0.42 at 10). Held inside the global step,
+    // the whole ball feels the ground. Bounds:
+    //  - the landing: the ball arrives with E = m g h = 9.8 J; the isothermal gas, compressed from V_0 to V,
+    //    stores P_c ln(V_0 / V), so it cannot go below V_0 exp(-E / P_c) = 0.82 V_0 unless the surface
+    //    folds (the links take some of the energy: measured 0.86 at 1 iteration, 0.92 at 3); 0.80.
+    //  - settled, 3 iterations: within 10% of the rest volume (the issue's bound; measured 0.99 in float
+    //    and double; implicit Euler converged: 0.98).
+    //  - settled, 1 iteration: the landing snaps the top in (edge links do not resist it, and one
+    //    iteration leaves them soft) and the dent stays, the top at 0.78 m instead of 0.95: 0.91 in float,
+    //    0.86 in double (docs/soft-bodies.md); 0.85, so it does not crumple.
+    for (int iterations : {1, 3}) {
+        CAPTURE(iterations);
+        SoftOnly s;
+        const Shape ground = make_plane(Vec3::UnitY(), 0);
+        s.soft.colliders().push_back(make_collider(ground, {}));
+        LinkMaterial m;
+        m.stretch = m.shear = m.bend = Real(1e4);
+        m.damping = 0;
+        SoftBodyDef base;
+        base.method = SoftMethod::FastMassSpring;
+        base.iterations = iterations;
+        base.pressure = 50;
+        base.friction = Real(0.5);
+        base.thickness = Real(0.02);
+        base.drag = 0;
+        base.allow_sleep = false;
+        const SoftBodyId id = s.soft.create_body(make_icosphere(Vec3(0, Real(1.5), 0), Real(0.5), 3, 1, m, base));
+        const SoftBody& b = s.soft.body(id);
+        REQUIRE(b.p.size() == 642);
+        double lowest = 1e30;
+        for (int k = 0; k < 600; ++k) {
+            s.pipeline.step(Real(1) / 60);
+            lowest = std::min(lowest, double(b.volume()) / double(b.rest_volume));
+        }
+        const double settled = double(b.volume()) / double(b.rest_volume);
+        INFO("lowest " << lowest << ", settled " << settled);
+        CHECK(lowest > 0.80);
+        CHECK(settled > (iterations == 1 ? 0.85 : 0.90));
+        CHECK(settled < 1.10);
     }
 }
 
