@@ -285,6 +285,21 @@ void FemEmbedding::send_back(std::vector<CouplingImpulse>& sent) {
                                 c.normal, -on_particle});
             }
         }
+        // Edge on edge: reported at the proxy's edge point, against the other body's nearer particle.
+        for (const SoftEdgeContact& c : soft_.soft_edge_contacts()) {
+            const Vec3 on_a = c.impulse * c.normal + c.friction;  // what edge a's point received
+            const bool mine_a = c.body == px.soft.index, mine_b = c.other == px.soft.index;
+            if (!mine_a && !mine_b) continue;
+            const std::uint32_t other = mine_a ? c.other : c.body;
+            if (soft_.slot_body(other).stepping) touches_awake = true;
+            if (mine_a) {
+                const Vec3 at = (1 - c.s) * b.p.x[c.a[0]] + c.s * b.p.x[c.a[1]];
+                sent.push_back({o, c.other, c.t < Real(0.5) ? c.b[0] : c.b[1], at, -c.normal, on_a});
+            } else {
+                const Vec3 at = (1 - c.t) * b.p.x[c.b[0]] + c.t * b.p.x[c.b[1]];
+                sent.push_back({o, c.body, c.s < Real(0.5) ? c.a[0] : c.a[1], at, c.normal, -on_a});
+            }
+        }
         if (touches_awake) rigid_.wake(px.rigid);
     }
 }

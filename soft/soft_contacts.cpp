@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/core/segment_closest.hpp"
 #include "soft/triangle_closest.hpp"
 
 namespace sinew {
@@ -22,6 +23,17 @@ constexpr Real kTinyArea = Real(1e-12);  // m^2 x 2: a triangle this small has n
 constexpr Real kFeatureTolerance = Real(1e-5);
 // Closest points nearer than this (m) are the same point (the triangles around an edge or a corner).
 constexpr Real kTieDistance = Real(1e-6);
+// Edge-edge contacts only where both closest points are this far (as a fraction of the edge) from the ends,
+// and between edges at more than about 6 degrees (this sine) to each other.
+constexpr Real kEdgeInterior = Real(1e-3);
+constexpr Real kEdgeParallelSine = Real(0.1);
+constexpr Real kEdgeRepulsion = Real(0.1);
+// Edge-edge contacts of a body with itself are built (detect_edges' `self`) but off: on cloth-pile
+// (demos/scenes) they kept the settled pile moving (0.10 J left after 5 s against 0.014 J without, the
+// largest stretch 3.3 against 2.4) and made the step 20 times dearer (the search reach grows with the
+// fastest particle's travel); as position pushes they blew it up (0.5 J to 15 J within 15 steps).
+// docs/soft-bodies.md, "Soft bodies against soft bodies".
+constexpr bool kSelfEdgeContacts = false;
 // Off an edge or a corner a particle is inside when the direction from the closest point makes more than
 // 120 degrees with the pseudo-normal there.
 constexpr Real kBehindCosine = Real(0.5);
@@ -271,8 +283,168 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
         const Vec3 vt = at(best_w, vb, bt);
         const Real vn0 = n.dot(a.b->p.v[i] - vt);
         const Real e = std::max(a.b->def.restitution, b.b->def.restitution);
+        Work w{};
+        w.ea = ea;
+        w.eb = eb;
+        w.na = 1;
+        w.nb = 3;
+        w.ia[0] = i;
+        w.wa[0] = 1;
+        for (int k = 0; k < 3; ++k) w.ib[k] = bt[k], w.wb[k] = best_w[k];
+        w.normal = n;
+        w.target_vn = vn0 < -kRestitutionThreshold ? -e * vn0 : Real(0);
+        w.edge = false;
+        w.record = std::uint32_t(contacts_.size());
         contacts_.push_back(c);
-        work_.push_back({ea, eb, vn0 < -kRestitutionThreshold ? -e * vn0 : Real(0), Real(0)});
+        work_.push_back(w);
+    }
+}
+
+void SoftContactPass::build_edges(const SoftBody& b, std::uint32_t e) {
+    // Each triangle edge once: the (smaller, larger) particle pairs sorted with the triangle edge they
+    // came from, equal pairs one edge.
+    sort_scratch_.clear();
+    for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint64_t u = b.triangles[t + k], v = b.triangles[t + (k + 1) % 3];
+            sort_scratch_.push_back({std::min(u, v) << 32 | std::max(u, v), std::uint32_t(t + k)});
+        }
+    std::sort(sort_scratch_.begin(), sort_scratch_.end());
+    std::vector<std::uint32_t>& ends = edge_ends_[e];
+    std::vector<std::uint32_t>& of_tri = tri_edges_[e];
+    ends.clear();
+    of_tri.assign(b.triangles.size(), 0);
+    for (std::size_t k = 0; k < sort_scratch_.size(); ++k) {
+        const std::uint64_t key = sort_scratch_[k].first;
+        if (k == 0 || key != sort_scratch_[k - 1].first) {
+            ends.push_back(std::uint32_t(key >> 32));
+            ends.push_back(std::uint32_t(key & 0xffffffffu));
+        }
+        of_tri[sort_scratch_[k].second] = std::uint32_t(ends.size() / 2 - 1);
+    }
+    edge_stamp_[e].assign(ends.size() / 2, 0);
+    edges_built_[e] = 1;
+}
+
+bool SoftContactPass::adjacent(std::uint32_t i, std::uint32_t j) const {
+    if (i == j) return true;
+    const auto first = neighbours_.begin() + neighbour_start_[i], last = neighbours_.begin() + neighbour_start_[i + 1];
+    return std::binary_search(first, last, j);
+}
+
+void SoftContactPass::detect_edges(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, Real h,
+                                   bool self) {
+    // As detect(): found at x_n through b's triangle grid (each triangle's edges are its candidates),
+    // enforced on the predicted positions along the direction between the closest points at x_n.
+    Grid& g = grids_[eb];
+    const std::vector<Vec3>& xa0 = a.b->p.x;
+    const std::vector<Vec3>& xb0 = b.b->p.x;
+    const std::vector<Vec3>& xa = *a.x;
+    const std::vector<Vec3>& xb = *b.x;
+    const std::vector<std::uint32_t>& ends_a = edge_ends_[ea];
+    const std::vector<std::uint32_t>& ends_b = edge_ends_[eb];
+    const std::vector<std::uint32_t>& tri_edges = tri_edges_[eb];
+    std::vector<std::uint32_t>& stamp = edge_stamp_[eb];
+    const Real rsum = a.b->def.thickness + b.b->def.thickness;
+    const Aabb near = b.box0.fattened(reach);
+    for (std::uint32_t e = 0; 2 * std::size_t(e) + 1 < ends_a.size(); ++e) {
+        const std::uint32_t u = ends_a[2 * e], v = ends_a[2 * e + 1];
+        Aabb q;
+        q.grow(xa0[u]);
+        q.grow(xa0[v]);
+        if (!q.overlaps(near)) continue;
+        q.grow(xa[u]);
+        q.grow(xa[v]);
+        q = q.fattened(a.b->def.thickness * (1 + kSlop));
+        if (!finite_box(q) || !q.overlaps(g.bounds)) continue;
+        ++g.query;
+        const Vec3 p0 = xa0[u], d1 = xa0[v] - xa0[u];
+        Real best = kRealMax, best_s = 0, best_t = 0;
+        std::uint32_t best_f = 0;
+        const auto consider = [&](std::uint32_t t) {
+            if (g.stamp[t] == g.query || !g.boxes[t].overlaps(q)) return;
+            g.stamp[t] = g.query;
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t f = tri_edges[3 * std::size_t(t) + k];
+                if (stamp[f] == g.query) continue;
+                stamp[f] = g.query;
+                const std::uint32_t f0 = ends_b[2 * f], f1 = ends_b[2 * f + 1];
+                // Against its own surface: each pair once, and not edges that share a particle or are one
+                // edge apart (they touch by construction).
+                if (self && (f <= e || adjacent(u, f0) || adjacent(u, f1) || adjacent(v, f0) || adjacent(v, f1))) continue;
+                const Vec3 d2 = xb0[f1] - xb0[f0];
+                // Nearly parallel edges have no well-defined closest pair; the point-triangle contacts of
+                // their ends hold them.
+                if (d1.cross(d2).squaredNorm() <= kEdgeParallelSine * kEdgeParallelSine * d1.squaredNorm() * d2.squaredNorm())
+                    continue;
+                Real sa = 0, tb = 0;
+                closest_segment_params(p0, d1, xb0[f0], d2, sa, tb);
+                // A closest point at an end of either edge is a particle against a face or an edge: the
+                // point-triangle contacts hold it.
+                if (!(sa > kEdgeInterior && sa < 1 - kEdgeInterior && tb > kEdgeInterior && tb < 1 - kEdgeInterior)) continue;
+                const Real d = (p0 + sa * d1 - xb0[f0] - tb * (xb0[f1] - xb0[f0])).norm();
+                if (!(d < reach) || !(d < best)) continue;
+                best = d;
+                best_f = f;
+                best_s = sa;
+                best_t = tb;
+            }
+        };
+        const Aabb r{q.lo.cwiseMax(g.bounds.lo), q.hi.cwiseMin(g.bounds.hi)};
+        const std::int64_t i0 = cell_of(r.lo.x(), g.cell), i1 = cell_of(r.hi.x(), g.cell);
+        const std::int64_t j0 = cell_of(r.lo.y(), g.cell), j1 = cell_of(r.hi.y(), g.cell);
+        const std::int64_t k0 = cell_of(r.lo.z(), g.cell), k1 = cell_of(r.hi.z(), g.cell);
+        if (i1 - i0 >= kMaxQueryCellsPerAxis || j1 - j0 >= kMaxQueryCellsPerAxis || k1 - k0 >= kMaxQueryCellsPerAxis) {
+            for (std::uint32_t t = 0; t < g.boxes.size(); ++t) consider(t);
+        } else
+        for (std::int64_t ci = i0; ci <= i1; ++ci)
+            for (std::int64_t cj = j0; cj <= j1; ++cj)
+                for (std::int64_t ck = k0; ck <= k1; ++ck) {
+                    const auto range = std::equal_range(g.keys.begin(), g.keys.end(), cell_key(ci, cj, ck));
+                    for (auto it = range.first; it != range.second; ++it) consider(g.tris[std::size_t(it - g.keys.begin())]);
+                }
+        if (best == kRealMax || best < kTieDistance) continue;  // none, or crossing already: no direction
+        const std::uint32_t f0 = ends_b[2 * best_f], f1 = ends_b[2 * best_f + 1];
+        const Vec3 n = (p0 + best_s * d1 - xb0[f0] - best_t * (xb0[f1] - xb0[f0])) / best;
+        const Real gap = n.dot((1 - best_s) * xa[u] + best_s * xa[v] - (1 - best_t) * xb[f0] - best_t * xb[f1]) - rsum;
+        if (gap >= rsum * kSlop) continue;
+        SoftEdgeContact c;
+        c.body = a.slot;
+        c.a[0] = u;
+        c.a[1] = v;
+        c.other = b.slot;
+        c.b[0] = f0;
+        c.b[1] = f1;
+        c.s = best_s;
+        c.t = best_t;
+        c.normal = n;
+        c.depth = std::max(Real(0), -gap);
+        const std::vector<Vec3>& va = a.b->p.v;
+        const std::vector<Vec3>& vb = b.b->p.v;
+        const Real vn0 = n.dot((1 - best_s) * va[u] + best_s * va[v] - (1 - best_t) * vb[f0] - best_t * vb[f1]);
+        const Real rest = std::max(a.b->def.restitution, b.b->def.restitution);
+        Work w{};
+        w.ea = ea;
+        w.eb = eb;
+        w.na = 2;
+        w.nb = 2;
+        w.ia[0] = u, w.ia[1] = v;
+        w.wa[0] = 1 - best_s, w.wa[1] = best_s;
+        w.ib[0] = f0, w.ib[1] = f1;
+        w.wb[0] = 1 - best_t, w.wb[1] = best_t;
+        w.normal = n;
+        // The normal speed the velocity sweeps hold the edges to. Apart at x_n, they may close the gap
+        // within the step and no more (a speculative contact): stopping them where they are would hold a
+        // falling square in the air, its gap at x_n. Already closer than the two thicknesses, they part at
+        // a tenth of the overlap per step (Bridson et al. 2002 §7.2's repulsion bound), not at once. An
+        // impact that closes the gap within the step rebounds with the restitution.
+        const Real gap0 = best - rsum;
+        w.target_vn = gap0 > 0 ? -gap0 / h : -kEdgeRepulsion * gap0 / h;
+        if (rest > 0 && vn0 < -kRestitutionThreshold && -vn0 * h > gap0) w.target_vn = std::max(w.target_vn, -rest * vn0);
+        w.edge = true;
+        w.record = std::uint32_t(edge_contacts_.size());
+        edge_contacts_.push_back(c);
+        work_.push_back(w);
     }
 }
 
@@ -308,6 +480,7 @@ bool SoftContactPass::near_self(std::uint32_t i, const std::uint32_t* tri) const
 
 void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
     contacts_.clear();
+    edge_contacts_.clear();
     work_.clear();
     const std::size_t n = entries.size();
     // Nothing to do unless two bodies may touch or one meets itself (a lone cloth costs nothing here).
@@ -322,6 +495,8 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
     std::vector<Side> sides(n);
     if (grids_.size() < n) grids_.resize(n);
     if (surface_.size() < n) surface_.resize(n);
+    if (edge_ends_.size() < n) edge_ends_.resize(n), tri_edges_.resize(n), edge_stamp_.resize(n);
+    edges_built_.assign(n, 0);
     Real thickest = 0;
     for (std::size_t e = 0; e < n; ++e) {
         Side& s = sides[e];
@@ -370,6 +545,11 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 if (!t.grid_built) build_grid(t, et, (t.b->def.thickness + thickest) * (1 + kSlop));
                 detect(p, t, ep, et, reach, false);
             }
+            // Edge on edge, once per pair: a's edges against b's triangle grid.
+            if (a.b->triangles.empty() || b.b->triangles.empty()) continue;
+            if (!edges_built_[i]) build_edges(*a.b, std::uint32_t(i));
+            if (!edges_built_[j]) build_edges(*b.b, std::uint32_t(j));
+            detect_edges(a, b, std::uint32_t(i), std::uint32_t(j), reach, h, false);
         }
     // Self-collision: a body's particles against its own triangles (a cloth folding on itself).
     for (std::size_t i = 0; i < n; ++i) {
@@ -378,69 +558,75 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
         if (!s.stepping || !b.def.self_collision || b.triangles.empty() || b.meets_colliders_through_proxy) continue;
         if (!s.grid_built) build_grid(s, std::uint32_t(i), (b.def.thickness + thickest) * (1 + kSlop));
         build_neighbours(b);
-        detect(s, s, std::uint32_t(i), std::uint32_t(i), 2 * b.def.thickness * (1 + kSlop) + 2 * s.travel, true);
+        const Real reach = 2 * b.def.thickness * (1 + kSlop) + 2 * s.travel;
+        detect(s, s, std::uint32_t(i), std::uint32_t(i), reach, true);
+        if (kSelfEdgeContacts) {
+            if (!edges_built_[i]) build_edges(b, std::uint32_t(i));
+            detect_edges(s, s, std::uint32_t(i), std::uint32_t(i), reach, h, true);
+        }
     }
-    if (contacts_.empty()) return;
+    if (work_.empty()) return;
 
-    // One contact's sides, the triangle's particles and the inverse masses the sweeps share impulses by.
-    struct Joined {
-        SoftSoftContact& c;
-        const Side& a;
-        const Side& b;
-        const std::uint32_t* tri;
-        Real wp;
-        Vec3 wk;
+    // One contact's sides and the inverse masses of its particles, which the sweeps share impulses by: a
+    // side's point moves by Δx_k = w_k m_k⁻¹ I n for an impulse I, so the effective inverse mass of the
+    // contact is W = Σ_a w_k² m_k⁻¹ + Σ_b w_k² m_k⁻¹.
+    const auto inv_masses = [&](const Work& w, Real* ma, Real* mb) {
+        const Side& a = sides[w.ea];
+        const Side& b = sides[w.eb];
+        for (std::uint32_t k = 0; k < w.na; ++k) ma[k] = a.inv_mass(w.ia[k]);
+        for (std::uint32_t k = 0; k < w.nb; ++k) mb[k] = b.inv_mass(w.ib[k]);
     };
-    const auto join = [&](std::size_t k) {
-        SoftSoftContact& c = contacts_[k];
-        const Side& a = sides[work_[k].ea];
-        const Side& b = sides[work_[k].eb];
-        const std::uint32_t* tri = &b.b->triangles[3 * std::size_t(c.triangle)];
-        return Joined{c, a, b, tri, a.inv_mass(c.particle), Vec3(b.inv_mass(tri[0]), b.inv_mass(tri[1]), b.inv_mass(tri[2]))};
+    const auto point = [](const std::vector<Vec3>& x, const std::uint32_t* idx, const Real* wt, std::uint32_t m) {
+        Vec3 p = Vec3::Zero();
+        for (std::uint32_t k = 0; k < m; ++k) p += wt[k] * x[idx[k]];
+        return p;
     };
-    // Gauss-Seidel: positions out of each other, then the normal velocities and friction.
+    // Gauss-Seidel: positions out of each other, then the normal velocities and friction. Edge-edge
+    // contacts act on velocities only, each change moving the predicted positions by h times it (as
+    // friction does): a position push without a velocity change is free energy, and edges fighting the
+    // point contacts around them with such pushes blew up a piled cloth (0.5 J to 15 J within 15 steps).
     for (int it = 0; it < kIterations; ++it)
-        for (std::size_t k = 0; k < contacts_.size(); ++k) {
-            const Joined j = join(k);
-            SoftSoftContact& c = j.c;
-            const Side& a = j.a;
-            const Side& b = j.b;
-            const std::uint32_t* tri = j.tri;
-            const Real wp = j.wp;
-            const Vec3& wk = j.wk;
+        for (Work& w : work_) {
+            if (w.edge) continue;
+            const Side& a = sides[w.ea];
+            const Side& b = sides[w.eb];
+            Real ma[2] = {0, 0}, mb[3] = {0, 0, 0};
+            inv_masses(w, ma, mb);
             std::vector<Vec3>& xa = *a.x;
             std::vector<Vec3>& xb = *b.x;
-            const Real W = wp + c.weights.cwiseAbs2().dot(wk);
+            Real W = 0;
+            for (std::uint32_t k = 0; k < w.na; ++k) W += w.wa[k] * w.wa[k] * ma[k];
+            for (std::uint32_t k = 0; k < w.nb; ++k) W += w.wb[k] * w.wb[k] * mb[k];
             if (W <= 0) continue;
-            const Vec3 on = at(c.weights, xb, tri);
-            const Real gap = c.normal.dot(xa[c.particle] - on) - (a.b->def.thickness + b.b->def.thickness);
+            const Real gap = w.normal.dot(point(xa, w.ia, w.wa, w.na) - point(xb, w.ib, w.wb, w.nb)) -
+                             (a.b->def.thickness + b.b->def.thickness);
             if (!(gap < 0)) continue;  // apart, or not finite (a body about to be contained)
             const Real d = -gap / W;  // kg m: the position "impulse"
-            xa[c.particle] += wp * d * c.normal;
-            for (int q = 0; q < 3; ++q) xb[tri[q]] -= c.weights[q] * wk[q] * d * c.normal;
-            work_[k].push += d;
+            for (std::uint32_t k = 0; k < w.na; ++k) xa[w.ia[k]] += w.wa[k] * ma[k] * d * w.normal;
+            for (std::uint32_t k = 0; k < w.nb; ++k) xb[w.ib[k]] -= w.wb[k] * mb[k] * d * w.normal;
+            w.push += d;
         }
     for (int it = 0; it < kIterations; ++it)
-        for (std::size_t k = 0; k < contacts_.size(); ++k) {
-            const Joined j = join(k);
-            SoftSoftContact& c = j.c;
-            const Side& a = j.a;
-            const Side& b = j.b;
-            const std::uint32_t* tri = j.tri;
-            const Real wp = j.wp;
-            const Vec3& wk = j.wk;
+        for (Work& w : work_) {
+            const Side& a = sides[w.ea];
+            const Side& b = sides[w.eb];
+            Real ma[2] = {0, 0}, mb[3] = {0, 0, 0};
+            inv_masses(w, ma, mb);
             std::vector<Vec3>& va = a.b->p.v;
             std::vector<Vec3>& vb = b.b->p.v;
+            const Vec3& n = w.normal;
             // A side that moves as a rigid body (a rigid body's FEM proxy) is met at the contact point with
             // its rigid velocity field and effective inverse mass 1/M + (r x n) I^-1 (r x n).
-            const Vec3 xa0 = a.b->p.x[c.particle];
-            const Vec3 xb0 = at(c.weights, b.b->p.x, tri);
+            const Vec3 xa0 = point(a.b->p.x, w.ia, w.wa, w.na);
+            const Vec3 xb0 = point(b.b->p.x, w.ib, w.wb, w.nb);
             const auto rigid_w = [&](const SoftBody::RigidMotion& m, const Vec3& x) {
-                const Vec3 rn = (x - m.com).cross(c.normal);
+                const Vec3 rn = (x - m.com).cross(n);
                 return m.inv_mass + rn.dot(m.inv_inertia * rn);
             };
-            const Real W = (a.rigid ? rigid_w(a.b->as_rigid, xa0) : wp) +
-                           (b.rigid ? rigid_w(b.b->as_rigid, xb0) : c.weights.cwiseAbs2().dot(wk));
+            Real Wa = 0, Wb = 0;
+            for (std::uint32_t k = 0; k < w.na; ++k) Wa += w.wa[k] * w.wa[k] * ma[k];
+            for (std::uint32_t k = 0; k < w.nb; ++k) Wb += w.wb[k] * w.wb[k] * mb[k];
+            const Real W = (a.rigid ? rigid_w(a.b->as_rigid, xa0) : Wa) + (b.rigid ? rigid_w(b.b->as_rigid, xb0) : Wb);
             if (W <= 0) continue;
             const auto push_rigid = [](SoftBody::RigidMotion& m, const Vec3& x, const Vec3& j) {
                 const Vec3 r = x - m.com;
@@ -450,47 +636,61 @@ void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
                 m.angular_impulse += r.cross(j);
             };
             const auto apply = [&](const Vec3& j) {
-                if (a.rigid) push_rigid(a.b->as_rigid, xa0, j);
-                else if (wp > 0) va[c.particle] += wp * j;
-                if (b.rigid) {
+                if (a.rigid)
+                    push_rigid(a.b->as_rigid, xa0, j);
+                else
+                    for (std::uint32_t k = 0; k < w.na; ++k) va[w.ia[k]] += w.wa[k] * ma[k] * j;
+                if (b.rigid)
                     push_rigid(b.b->as_rigid, xb0, -j);
-                    return;
-                }
-                for (int q = 0; q < 3; ++q)
-                    if (wk[q] > 0) vb[tri[q]] -= c.weights[q] * wk[q] * j;
+                else
+                    for (std::uint32_t k = 0; k < w.nb; ++k) vb[w.ib[k]] -= w.wb[k] * mb[k] * j;
             };
             const auto relative = [&] {
-                const SoftBody::RigidMotion& ma = a.b->as_rigid;
-                const SoftBody::RigidMotion& mb = b.b->as_rigid;
-                const Vec3 vpa = a.rigid ? Vec3(ma.v + ma.w.cross(xa0 - ma.com)) : va[c.particle];
-                const Vec3 vpb = b.rigid ? Vec3(mb.v + mb.w.cross(xb0 - mb.com))
-                                         : at(c.weights, vb, tri);
+                const SoftBody::RigidMotion& ra = a.b->as_rigid;
+                const SoftBody::RigidMotion& rb = b.b->as_rigid;
+                const Vec3 vpa = a.rigid ? Vec3(ra.v + ra.w.cross(xa0 - ra.com)) : point(va, w.ia, w.wa, w.na);
+                const Vec3 vpb = b.rigid ? Vec3(rb.v + rb.w.cross(xb0 - rb.com)) : point(vb, w.ib, w.wb, w.nb);
                 return Vec3(vpa - vpb);
             };
+            // An edge-edge contact's changes move this step's predicted positions too (see above).
+            const auto move = [&](const Vec3& j) {
+                if (a.stepping && !a.rigid)
+                    for (std::uint32_t k = 0; k < w.na; ++k) (*a.x)[w.ia[k]] += h * w.wa[k] * ma[k] * j;
+                if (b.stepping && !b.rigid)
+                    for (std::uint32_t k = 0; k < w.nb; ++k) (*b.x)[w.ib[k]] -= h * w.wb[k] * mb[k] * j;
+            };
             // Normal: accumulated and kept >= 0, so a later sweep can take back what an earlier one gave.
-            const Real vn = c.normal.dot(relative());
+            const Real vn = n.dot(relative());
             if (!std::isfinite(vn)) continue;
-            const Real jn = std::max(Real(0), c.impulse + (work_[k].target_vn - vn) / W);
-            apply((jn - c.impulse) * c.normal);
-            c.impulse = jn;
+            const Real jn = std::max(Real(0), w.impulse + (w.target_vn - vn) / W);
+            apply((jn - w.impulse) * n);
+            if (w.edge) move((jn - w.impulse) * n);
+            w.impulse = jn;
             // Coulomb friction, bounded by mu times the normal impulse including the position pushes.
             const Real mu = std::sqrt(std::max(Real(0), a.b->def.friction * b.b->def.friction));
-            const Real budget = mu * (c.impulse + work_[k].push / h);
+            const Real budget = mu * (w.impulse + w.push / h);
             const Vec3 vr = relative();
-            const Vec3 vt = vr - c.normal.dot(vr) * c.normal;
-            Vec3 jt = c.friction - vt / W;
+            const Vec3 vt = vr - n.dot(vr) * n;
+            Vec3 jt = w.friction - vt / W;
             const Real len = jt.norm();
             if (len > budget) jt *= budget / len;
-            const Vec3 djt = jt - c.friction;
+            const Vec3 djt = jt - w.friction;
             apply(djt);
             // The step already moved the particles with their pre-friction velocities: friction takes back
             // its share of that motion, as the particle-shape pass does.
-            if (a.stepping && wp > 0) (*a.x)[c.particle] += h * wp * djt;
-            if (b.stepping)
-                for (int q = 0; q < 3; ++q)
-                    if (wk[q] > 0) (*b.x)[tri[q]] -= h * c.weights[q] * wk[q] * djt;
-            c.friction = jt;
+            move(djt);
+            w.friction = jt;
         }
+    // What each contact did, into its record.
+    for (const Work& w : work_) {
+        if (w.edge) {
+            edge_contacts_[w.record].impulse = w.impulse;
+            edge_contacts_[w.record].friction = w.friction;
+        } else {
+            contacts_[w.record].impulse = w.impulse;
+            contacts_[w.record].friction = w.friction;
+        }
+    }
     // A rigid side's nodes take its rigid velocity field.
     for (const Side& s : sides)
         if (s.rigid) {

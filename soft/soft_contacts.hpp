@@ -16,9 +16,18 @@
 // A body with SoftBodyDef::self_collision also meets its own triangles, all but those within one edge of
 // the particle (a cloth folding on itself).
 //
-// What it does not do (docs/soft-bodies.md, "Soft bodies against soft bodies"): edge-edge contacts (two
-// cloths crossing edge on edge between particles), continuous collision (a particle that crosses a whole
-// triangle in one step, or ends deeper inside a closed body than its search reach).
+// Edge-edge contacts between two bodies: two surfaces crossing edge on edge between their particles (a
+// cloth's edge across another's, a cube's edge across another's) are found between surface edges (the
+// triangles' edges) whose closest points lie inside both edges (a closest point at an end of an edge is a
+// particle, which the point-triangle contacts hold), and resolved with the four particles at the weights
+// of the two closest points (Bridson et al. 2002 §7.1 treat both kinds alike), on velocities only: each
+// impulse also moves the predicted positions by h times its velocity change, towards a speculative target
+// (soft_contacts.cpp).
+//
+// What it does not do (docs/soft-bodies.md, "Soft bodies against soft bodies"): edge-edge contacts of a
+// body with itself (built, off: they kept a piled cloth moving); continuous collision (a particle that
+// crosses a whole triangle in one step, or ends deeper inside a closed body than its search reach, or an
+// edge that passes another within a step); edges of bodies without triangles (ropes).
 #pragma once
 
 #include <cstdint>
@@ -41,6 +50,20 @@ struct SoftSoftContact {
     Vec3 friction = Vec3::Zero(); ///< tangential impulse the particle received (N s)
 };
 
+/// One edge-edge contact of the last step: an edge of one body's surface near an edge of another's (or
+/// of its own), their closest points inside both edges.
+struct SoftEdgeContact {
+    std::uint32_t body = 0;          ///< slot of the body of edge a
+    std::uint32_t a[2] = {0, 0};     ///< edge a's particles
+    std::uint32_t other = 0;         ///< slot of the body of edge b
+    std::uint32_t b[2] = {0, 0};     ///< edge b's particles
+    Real s = 0, t = 0;               ///< the closest points: a[0] + s (a[1] - a[0]) and b[0] + t (b[1] - b[0])
+    Vec3 normal = Vec3::UnitY();     ///< unit, from edge b towards edge a
+    Real depth = 0;                  ///< penetration of the predicted positions before the pass (m, >= 0)
+    Real impulse = 0;                ///< normal impulse edge a's point received (N s); edge b's took its opposite
+    Vec3 friction = Vec3::Zero();    ///< tangential impulse edge a's point received (N s)
+};
+
 class SoftContactPass {
 public:
     /// A body taking part this step: its slot, whether it steps (else it is asleep or sitting out, and
@@ -55,6 +78,7 @@ public:
     /// records them (contacts()). Stepping bodies end with v_solved = v.
     void run(const std::vector<Entry>& bodies, Real h);
     const std::vector<SoftSoftContact>& contacts() const { return contacts_; }
+    const std::vector<SoftEdgeContact>& edge_contacts() const { return edge_contacts_; }
 
     /// May bodies a and b (in slots sa and sb) touch at all: both have particles, one has triangles, their
     /// filters agree, neither meets the world only through a rigid proxy, and each is among the other's
@@ -72,11 +96,21 @@ private:
     /// Contacts of the surface particles of entry ea with the triangles of entry eb within `reach`; `self`:
     /// ea == eb, and triangles within one edge of the particle are skipped (build_neighbours first).
     void detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, bool self);
+    /// Edge-edge contacts of the surface edges of entry ea with those of entry eb (through eb's triangle
+    /// grid); `self`: ea == eb, each pair once, edges within one edge of each other skipped.
+    void detect_edges(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, Real h, bool self);
+    /// Entry e's surface edges (each triangle edge once) and each triangle's three edge indices.
+    void build_edges(const SoftBody& b, std::uint32_t e);
     /// The edge neighbours of every particle of b, for near_self.
     void build_neighbours(const SoftBody& b);
     /// Is the triangle on particle i or one edge from it?
     bool near_self(std::uint32_t i, const std::uint32_t* tri) const;
+    /// Is particle j particle i or one edge from it?
+    bool adjacent(std::uint32_t i, std::uint32_t j) const;
     std::vector<std::uint32_t> neighbour_start_, neighbours_;
+    /// Per entry: 2 particles per surface edge, 3 edge indices per triangle, the last query per edge.
+    std::vector<std::vector<std::uint32_t>> edge_ends_, tri_edges_, edge_stamp_;
+    std::vector<std::uint8_t> edges_built_;
     /// Entry e's triangles into its hash grid, each box fattened by `margin`.
     void build_grid(Side& s, std::uint32_t e, Real margin);
 
@@ -97,11 +131,23 @@ private:
     std::vector<std::uint8_t> mark_;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> sort_scratch_;
     std::vector<SoftSoftContact> contacts_;
-    /// Per contact: the entries it joins, and its target normal speed (restitution) and summed push.
+    std::vector<SoftEdgeContact> edge_contacts_;
+    /// Per contact of either kind, what the sweeps work on: the entries it joins, the particles of each
+    /// side at the weights of the contact point (point-triangle: 1 and 3, edge-edge: 2 and 2), its normal
+    /// (from side b to side a), target normal speed (restitution), summed push and impulses, and the
+    /// record it reports to (index into contacts_ or edge_contacts_).
     struct Work {
         std::uint32_t ea, eb;
+        std::uint32_t na, nb;
+        std::uint32_t ia[2], ib[3];
+        Real wa[2], wb[3];
+        Vec3 normal;
         Real target_vn;
         Real push;
+        Real impulse;
+        Vec3 friction;
+        bool edge;
+        std::uint32_t record;
     };
     std::vector<Work> work_;
 };
