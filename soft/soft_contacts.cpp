@@ -65,6 +65,27 @@ std::uint64_t cell_key(std::int64_t i, std::int64_t j, std::int64_t k) {
     return ((std::uint64_t(i) & m) << 42) | ((std::uint64_t(j) & m) << 21) | (std::uint64_t(k) & m);
 }
 
+// Calls visit(t) for every triangle of grid g filed in a cell that query box q covers (a triangle in
+// several such cells more than once: the callers stamp them), or for every triangle when q covers more
+// than kMaxQueryCellsPerAxis cells along an axis (something sweeping the whole body).
+template <class Grid, class Visit>
+void for_each_triangle_near(const Grid& g, const Aabb& q, Visit&& visit) {
+    const Aabb r{q.lo.cwiseMax(g.bounds.lo), q.hi.cwiseMin(g.bounds.hi)};  // no triangle outside the grid's box
+    const std::int64_t i0 = cell_of(r.lo.x(), g.cell), i1 = cell_of(r.hi.x(), g.cell);
+    const std::int64_t j0 = cell_of(r.lo.y(), g.cell), j1 = cell_of(r.hi.y(), g.cell);
+    const std::int64_t k0 = cell_of(r.lo.z(), g.cell), k1 = cell_of(r.hi.z(), g.cell);
+    if (i1 - i0 >= kMaxQueryCellsPerAxis || j1 - j0 >= kMaxQueryCellsPerAxis || k1 - k0 >= kMaxQueryCellsPerAxis) {
+        for (std::uint32_t t = 0; t < g.boxes.size(); ++t) visit(t);
+        return;
+    }
+    for (std::int64_t ci = i0; ci <= i1; ++ci)
+        for (std::int64_t cj = j0; cj <= j1; ++cj)
+            for (std::int64_t ck = k0; ck <= k1; ++ck) {
+                const auto range = std::equal_range(g.keys.begin(), g.keys.end(), cell_key(ci, cj, ck));
+                for (auto it = range.first; it != range.second; ++it) visit(g.tris[std::size_t(it - g.keys.begin())]);
+            }
+}
+
 }  // namespace
 
 struct SoftContactPass::Side {
@@ -191,19 +212,7 @@ void SoftContactPass::detect(const Side& a, const Side& b, std::uint32_t ea, std
             if (self && near_self(i, &tri[3 * std::size_t(t)])) return;
             cand_.push_back(t);
         };
-        const Aabb r{q.lo.cwiseMax(g.bounds.lo), q.hi.cwiseMin(g.bounds.hi)};  // no triangle outside the grid's box
-        const std::int64_t i0 = cell_of(r.lo.x(), g.cell), i1 = cell_of(r.hi.x(), g.cell);
-        const std::int64_t j0 = cell_of(r.lo.y(), g.cell), j1 = cell_of(r.hi.y(), g.cell);
-        const std::int64_t k0 = cell_of(r.lo.z(), g.cell), k1 = cell_of(r.hi.z(), g.cell);
-        if (i1 - i0 >= kMaxQueryCellsPerAxis || j1 - j0 >= kMaxQueryCellsPerAxis || k1 - k0 >= kMaxQueryCellsPerAxis) {
-            for (std::uint32_t t = 0; t < g.boxes.size(); ++t) consider(t);  // a particle sweeping the whole body
-        } else
-        for (std::int64_t ci = i0; ci <= i1; ++ci)
-            for (std::int64_t cj = j0; cj <= j1; ++cj)
-                for (std::int64_t ck = k0; ck <= k1; ++ck) {
-                    const auto range = std::equal_range(g.keys.begin(), g.keys.end(), cell_key(ci, cj, ck));
-                    for (auto it = range.first; it != range.second; ++it) consider(g.tris[std::size_t(it - g.keys.begin())]);
-                }
+        for_each_triangle_near(g, q, consider);
         if (cand_.empty()) continue;
         // The closest feature of the surface: the triangle whose closest point is nearest, a face
         // interior winning a tie with the edges and corners it meets (its normal is the surface's there).
@@ -390,19 +399,7 @@ void SoftContactPass::detect_edges(const Side& a, const Side& b, std::uint32_t e
                 best_t = tb;
             }
         };
-        const Aabb r{q.lo.cwiseMax(g.bounds.lo), q.hi.cwiseMin(g.bounds.hi)};
-        const std::int64_t i0 = cell_of(r.lo.x(), g.cell), i1 = cell_of(r.hi.x(), g.cell);
-        const std::int64_t j0 = cell_of(r.lo.y(), g.cell), j1 = cell_of(r.hi.y(), g.cell);
-        const std::int64_t k0 = cell_of(r.lo.z(), g.cell), k1 = cell_of(r.hi.z(), g.cell);
-        if (i1 - i0 >= kMaxQueryCellsPerAxis || j1 - j0 >= kMaxQueryCellsPerAxis || k1 - k0 >= kMaxQueryCellsPerAxis) {
-            for (std::uint32_t t = 0; t < g.boxes.size(); ++t) consider(t);
-        } else
-        for (std::int64_t ci = i0; ci <= i1; ++ci)
-            for (std::int64_t cj = j0; cj <= j1; ++cj)
-                for (std::int64_t ck = k0; ck <= k1; ++ck) {
-                    const auto range = std::equal_range(g.keys.begin(), g.keys.end(), cell_key(ci, cj, ck));
-                    for (auto it = range.first; it != range.second; ++it) consider(g.tris[std::size_t(it - g.keys.begin())]);
-                }
+        for_each_triangle_near(g, q, consider);
         if (best == kRealMax || best < kTieDistance) continue;  // none, or crossing already: no direction
         const std::uint32_t f0 = ends_b[2 * best_f], f1 = ends_b[2 * best_f + 1];
         const Vec3 n = (p0 + best_s * d1 - xb0[f0] - best_t * (xb0[f1] - xb0[f0])) / best;
