@@ -224,7 +224,7 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
     for (std::size_t k = 0; k < collision.plane_count(); ++k) {
         const ParticleCollision::PlaneView pl = collision.plane(k);
         const int r = c.row[pl.particle];
-        if (r < 0 || c.released[pl.particle]) continue;  // pinned or attached: not an unknown
+        if (r < 0 || c.released[pl.particle]) continue;  // pinned or attached (not an unknown), or released
         c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness), 0.0});
     }
     std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));

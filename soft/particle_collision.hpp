@@ -52,8 +52,9 @@ public:
     /// Plane k (k < plane_count()), grouped by collider, then by particle.
     PlaneView plane(std::size_t k) const;
     /// A method that holds its particles on their planes inside its own solve (fast mass-spring) records
-    /// the normal impulse plane k applied there (N s, >= 0): finish() counts it as normal velocity change
-    /// (friction budget, restitution) and reports it in the contact's impulse.
+    /// the normal impulse plane k applied there (N s; negative when the plane pulled, which finish()
+    /// reports as it is and leaves out of the friction budget and restitution): finish() counts it as
+    /// normal velocity change and reports it in the contact's impulse.
     void set_held(std::size_t k, Real impulse) { held_[k] = impulse; }
 
 private:

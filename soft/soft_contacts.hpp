@@ -137,17 +137,17 @@ private:
     /// (from side b to side a), target normal speed (restitution), summed push and impulses, and the
     /// record it reports to (index into contacts_ or edge_contacts_).
     struct Work {
-        std::uint32_t ea, eb;
-        std::uint32_t na, nb;
-        std::uint32_t ia[2], ib[3];
-        Real wa[2], wb[3];
-        Vec3 normal;
-        Real target_vn;
-        Real push;
-        Real impulse;
-        Vec3 friction;
-        bool edge;
-        std::uint32_t record;
+        std::uint32_t ea = 0, eb = 0;
+        std::uint32_t na = 0, nb = 0;
+        std::uint32_t ia[2] = {0, 0}, ib[3] = {0, 0, 0};
+        Real wa[2] = {0, 0}, wb[3] = {0, 0, 0};
+        Vec3 normal = Vec3::Zero();
+        Real target_vn = 0;
+        Real push = 0;
+        Real impulse = 0;
+        Vec3 friction = Vec3::Zero();
+        bool edge = false;
+        std::uint32_t record = 0;
     };
     std::vector<Work> work_;
 };

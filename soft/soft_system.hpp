@@ -121,7 +121,7 @@ public:
     const std::vector<ParticleContact>& contacts() const { return contacts_; }
     /// Contacts between soft bodies in the last (sub-)step (soft/soft_contacts.hpp).
     const std::vector<SoftSoftContact>& soft_contacts() const { return soft_contacts_.contacts(); }
-    /// The edge-edge contacts between soft bodies (and of a body with itself) of the last step.
+    /// The edge-edge contacts between soft bodies of the last step (a body with itself: none, they are off).
     const std::vector<SoftEdgeContact>& soft_edge_contacts() const { return soft_contacts_.edge_contacts(); }
     /// Bodies whose particles were not finite at the end of the last step: each was put back where the
     /// step found it, at rest (engine/core/step_fault.hpp).

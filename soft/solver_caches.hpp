@@ -119,8 +119,9 @@ struct FastMassSpringCache {
     std::vector<ContactRow> contacts;
     std::vector<double> cg_r, cg_p, cg_q;  ///< per contact: residual (m), direction, S p
     std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
-    std::vector<std::uint8_t> released;    ///< per particle: its plane pulled last step, left to the contact pass
-    int contact_iterations = 0;            ///< CG iterations over the contacts in the last step (tests)
+    std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last solve that had
+                                           ///< planes; all its planes are left to the contact pass next time
+    int contact_iterations = 0;            ///< CG products over the contacts in the last step (for measuring)
 };
 
 }  // namespace sinew
