@@ -225,9 +225,10 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
         const ParticleCollision::PlaneView pl = collision.plane(k);
         const int r = c.row[pl.particle];
         if (r < 0 || c.released[pl.particle]) continue;  // pinned or attached (not an unknown), or released
-        c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness), 0.0});
+        // The approach the hold will remove: the particle's normal speed into the plane before the solve.
+        const Real approach = std::max(Real(0), -pl.normal.dot(b.p.v[pl.particle] - pl.velocity));
+        c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness), 0.0, approach});
     }
-    std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));
 }
 
 // The contact forces so far, N λ (signed), on the right-hand side: each local/global iteration's global
@@ -378,6 +379,9 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     // not understood yet (docs/fem.md).
     c.contacts.clear();
     if (collision && iterations > 0 && !b.fem) gather_contacts(b, c, *collision);
+    // A release lasts one step, whether this step gathered planes or not (airborne, the flags of the last
+    // contact would otherwise wait for the next one).
+    std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));
     c.contact_iterations = 0;
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
@@ -419,7 +423,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     // The impulse each plane held its particle with, for the contact pass (friction, restitution, reports);
     // one that pulled is released for the next step.
     for (const FastMassSpringCache::ContactRow& ct : c.contacts) {
-        collision->set_held(ct.plane, Real(ct.force * double(h)));
+        collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         if (ct.force < 0) c.released[ct.particle] = 1;
     }
 

@@ -30,6 +30,7 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     candidates_.clear();
     planes_.clear();
     held_.clear();
+    held_approach_.clear();
     correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
     // How far a particle may get this step: its speed and the largest acceleration (gravity plus the
@@ -108,6 +109,7 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
         }
     }
     held_.assign(planes_.size(), Real(0));
+    held_approach_.assign(planes_.size(), Real(0));
 }
 
 Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal,
@@ -141,6 +143,7 @@ ParticleCollision::PlaneView ParticleCollision::plane(std::size_t k) const {
         out.point = col.xf.apply(then.apply_inverse(pl.point));
         out.normal = col.xf.q * then.rotate_inverse(pl.normal);
     }
+    out.velocity = col.point_velocity(out.point);
     return out;
 }
 
@@ -216,14 +219,16 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         // Normal velocity change the solve's constraint already made: an implicit solve's per particle
         // (SoftBody::contact_dvn), a fast mass-spring solve's per plane (set_held).
         const Real held_here = held_[k] * b.p.inv_mass[i];
+        const Real held_approach = held_here > 0 ? held_approach_[k] : Real(0);
         const Real held = (b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i]) + std::max(Real(0), held_here);
         if (vn >= 0 && depth <= 0 && correction_[i].isZero() && held == 0 && held_here == 0)
             continue;  // near but separating: not a contact
         Vec3 dv = Vec3::Zero();
         const Real removed = std::max(Real(0), -vn);  // approach this pass removes
         // A plane held inside the solve took the approach there: it counts for restitution as the
-        // relaxation's pushes do.
-        const Real approach = removed + pushed_speed + std::max(Real(0), held_here);
+        // relaxation's pushes do (the particle's own approach, not the held impulse over its mass, which
+        // also carries what its links press it down with: a resting cloth's particles would bounce).
+        const Real approach = removed + pushed_speed + held_approach;
         // Remove the approach; above the threshold reflect it scaled by e (Jakobsen reflects the old
         // position across the contact plane).
         const Real dvn = removed + (approach > kRestitutionThreshold ? e * approach : Real(0));

@@ -47,15 +47,22 @@ public:
         std::uint32_t collider = 0;
         Vec3 point = Vec3::Zero();   ///< on the collider's surface (world)
         Vec3 normal = Vec3::UnitY(); ///< outward unit normal, from the collider towards the particle
+        Vec3 velocity = Vec3::Zero(); ///< of the collider's surface at `point` (m/s)
     };
     std::size_t plane_count() const { return planes_.size(); }
     /// Plane k (k < plane_count()), grouped by collider, then by particle.
     PlaneView plane(std::size_t k) const;
     /// A method that holds its particles on their planes inside its own solve (fast mass-spring) records
     /// the normal impulse plane k applied there (N s; negative when the plane pulled, which finish()
-    /// reports as it is and leaves out of the friction budget and restitution): finish() counts it as
-    /// normal velocity change and reports it in the contact's impulse.
-    void set_held(std::size_t k, Real impulse) { held_[k] = impulse; }
+    /// reports as it is and leaves out of the friction budget and restitution) and the particle's approach
+    /// speed that holding removed (m/s, >= 0: its normal speed into the plane before the solve). finish()
+    /// counts the impulse as normal velocity change for the friction budget and reports it in the
+    /// contact's impulse; restitution reflects the approach only (the impulse also carries the load the
+    /// particle's links press it down with, which must not bounce it).
+    void set_held(std::size_t k, Real impulse, Real approach) {
+        held_[k] = impulse;
+        held_approach_[k] = approach;
+    }
 
 private:
     /// A particle's collision plane against one collider, in the world at the collider's pose when it
@@ -81,8 +88,10 @@ private:
     /// its normal part over h as normal velocity change (restitution, friction budget) and reports
     /// correction * m / h in the particle's first contact impulse.
     std::vector<Vec3> correction_;
-    /// Per plane: the normal impulse a solve held it with (set_held), 0 if none.
+    /// Per plane: the normal impulse a solve held it with and the approach speed it removed (set_held),
+    /// 0 if none.
     std::vector<Real> held_;
+    std::vector<Real> held_approach_;
 };
 
 }  // namespace sinew

@@ -115,12 +115,13 @@ struct FastMassSpringCache {
         Vec3 normal;
         double offset;         ///< n · x >= offset: the plane lifted by the particle's thickness
         double force;          ///< λ, the normal force it holds the particle with (N); < 0 pulls
+        Real approach;         ///< the particle's normal speed into the plane before the solve (m/s, >= 0)
     };
     std::vector<ContactRow> contacts;
     std::vector<double> cg_r, cg_p, cg_q;  ///< per contact: residual (m), direction, S p
     std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
-    std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last solve that had
-                                           ///< planes; all its planes are left to the contact pass next time
+    std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last step; all its
+                                           ///< planes are left to the contact pass in this one
     int contact_iterations = 0;            ///< CG products over the contacts in the last step (for measuring)
 };
 
