@@ -3,8 +3,10 @@
 
 The scenes are where rigid solvers are known to fail (Catto's Solver2D collects the kind): mass ratios,
 heavy impacts, long chains with heavy ends, fast and tumbling bodies, deep overlaps, an arch, a stack
-sliding down a ramp and a body spun about its intermediate axis. What the benchmark checks in each is
-in tools/bench/bench_robustness.cpp. Run from the repository root: python3 scripts/hard_scenes.py
+sliding down a ramp and a body spun about its intermediate axis; and where soft bodies are known to fail
+under contact (hard-soft-*): a cloth draped over a sphere, a pressure ball landing, two soft balls thrown
+at each other, a cloth folded onto itself and a cloth thrown at a thin wall. What the benchmark checks in
+each is in tools/bench/bench_robustness.cpp. Run from the repository root: python3 scripts/hard_scenes.py
 """
 import json
 import math
@@ -206,9 +208,115 @@ def spin():
         gravity=(0, 0, 0))
 
 
+# Soft bodies under contact (issue 14 item 7). The benchmark runs each under every soft method, replacing
+# the scene's method and iterations (tools/bench/bench_robustness.cpp); the links' stiffness is the
+# spring methods'.
+def soft_scene(name, description, steps, bodies, soft_bodies, gravity=(0, -9.81, 0)):
+    s = scene(name, description, steps, bodies, gravity=gravity)
+    del s["materials"]
+    s["soft_bodies"] = soft_bodies
+    return s
+
+
+SOFT_GROUND = {"name": "ground", "type": "static", "shape": {"type": "box", "half_extents": [5, 0.5, 5]},
+               "position": [0, -0.5, 0], "material": {"friction": 0.5}}
+
+
+def soft_drape():
+    return soft_scene(
+        "hard-soft-drape",
+        "Issue 5's cloth-drop with springs: a free 2 m x 2 m cloth (32 x 32 nodes, 1 kg, stretch and shear "
+        "links of 1e4 N/m) falls from y = 2 onto a sphere (radius 0.5, top at 1.5) and drapes over it to the "
+        "ground, 10 s. Contacts are where fast mass-spring lost its stiffness (stretch 1.78 against 1.04 "
+        "hanging free). Checked: the largest link stretch at the end, at most 1.10.", 600,
+        [SOFT_GROUND, {"name": "ball", "type": "static", "shape": {"type": "sphere", "radius": 0.5},
+                       "position": [0, 1, 0], "material": {"friction": 0.5}}],
+        [{"name": "cloth", "builder": "cloth", "nodes": [32, 32], "origin": [-1, 2, -1], "edge_u": [2, 0, 0],
+          "edge_v": [0, 0, 2], "shear": True, "bend": False, "mass": 1, "method": "fast-ms",
+          "solver": {"iterations": 3}, "links": {"stretch": 10000, "shear": 10000},
+          "material": {"friction": 0.5, "thickness": 0.02}}])
+
+
+def soft_pressure():
+    return soft_scene(
+        "hard-soft-pressure",
+        "Issue 5's pressure-ball: an inflated icosphere (642 vertices, radius 0.5 m, 1 kg, links of 1e4 N/m, "
+        "Matyka pressure constant 50 J) dropped from y = 1.5 onto the ground, 5 s. A fast mass-spring ball "
+        "crumpled to a quarter of its volume. Checked: its volume at the end within 10% of the rest volume, "
+        "and never below 0.80 of it on the way (the isothermal gas's energy bound is exp(-m g H / P) = 0.82).",
+        300, [SOFT_GROUND],
+        [{"name": "ball", "builder": "icosphere", "center": [0, 1.5, 0], "radius": 0.5, "subdivisions": 3,
+          "mass": 1, "method": "fast-ms", "solver": {"iterations": 3}, "links": {"stretch": 10000},
+          "material": {"pressure": 50, "friction": 0.5, "thickness": 0.02}}])
+
+
+def soft_collide():
+    ball = {"builder": "icosphere", "radius": 0.3, "subdivisions": 2, "mass": 0.5, "method": "fast-ms",
+            "solver": {"iterations": 3}, "links": {"stretch": 10000},
+            "material": {"pressure": 20, "friction": 0.3, "thickness": 0.01}}
+    return soft_scene(
+        "hard-soft-collide",
+        "Two inflated soft balls (162 vertices, radius 0.3 m, 0.5 kg, links of 1e4 N/m, pressure 20 J) "
+        "thrown at each other at 3 m/s each along x, no gravity, 1.5 s. They passed through each other "
+        "before soft-soft contacts. Checked: the least gap along x between the first ball's furthest "
+        "particle and the second's nearest (m) stays above 0 (surfaces apart).", 90, [],
+        [dict(ball, name="left", center=[-0.5, 1, 0], velocity=[3, 0, 0]),
+         dict(ball, name="right", center=[0.5, 1, 0], velocity=[-3, 0, 0])],
+        gravity=(0, 0, 0))
+
+
+def folded_cloth_obj(path):
+    # 2 m x 1 m, 21 x 11 nodes 10 cm apart, folded in half along x = 1 m: the lower layer at y = 1 cm,
+    # the upper laid back over it at 5 cm (the fold is its rest shape). Node (i, k) is vertex i * 11 + k.
+    nx, nz = 21, 11
+    with open(path, "w") as f:
+        f.write("# folded cloth for hard-soft-fold (scripts/hard_scenes.py)\n")
+        for i in range(nx):
+            for k in range(nz):
+                upper = i > 10
+                x = 0.1 * (20 - i if upper else i)
+                f.write("v %.2f %.2f %.2f\n" % (x, 0.05 if upper else 0.01, 0.1 * k))
+        for i in range(nx - 1):
+            for k in range(nz - 1):
+                a = i * nz + k + 1
+                b, d = a + nz, a + 1
+                c = b + 1
+                f.write("f %d %d %d\nf %d %d %d\n" % (a, d, c, a, c, b))
+
+
+def soft_fold():
+    return soft_scene(
+        "hard-soft-fold",
+        "Self-collision: a 2 m x 1 m cloth (21 x 11 nodes, 0.5 kg, demos/meshes/folded-cloth.obj) lying on the "
+        "ground folded in half, its upper layer 4 cm above the lower, with self_collision on; gravity brings "
+        "the upper layer down, 2 s. Without self-collision it falls through the lower layer onto the ground. "
+        "Checked: the least height of the upper layer's inner nodes above the nodes under them, at least "
+        "17 mm (the two thicknesses, 20 mm, less 3 mm).", 120, [SOFT_GROUND],
+        [{"name": "cloth", "builder": "mesh", "obj": "../meshes/folded-cloth.obj", "link_distance": 1, "mass": 0.5,
+          "method": "implicit", "solver": {"iterations": 100},
+          "material": {"thickness": 0.01, "self_collision": True, "friction": 0.5}}])
+
+
+def soft_tunnel():
+    return soft_scene(
+        "hard-soft-tunnel",
+        "A 0.5 m cloth (11 x 11 nodes, 0.1 kg, links of 1e4 N/m) thrown at 50 m/s along x at a 0.1 m wall "
+        "1 m away (0.83 m of travel per step, eight times the wall's thickness), no gravity, 0.5 s. Checked: "
+        "no particle passes the wall's near face less its thickness (m beyond it, at most 5 mm).", 30,
+        [{"name": "wall", "type": "static", "shape": {"type": "box", "half_extents": [0.05, 1, 1]},
+          "position": [1, 0, 0], "material": {"friction": 0.5}}],
+        [{"name": "cloth", "builder": "cloth", "nodes": [11, 11], "origin": [-0.25, -0.25, 0], "edge_u": [0, 0.5, 0],
+          "edge_v": [0, 0, 0.5], "shear": True, "bend": False, "mass": 0.1, "method": "fast-ms",
+          "solver": {"iterations": 3}, "links": {"stretch": 10000, "shear": 10000}, "velocity": [50, 0, 0],
+          "material": {"friction": 0.5, "thickness": 0.01}}],
+        gravity=(0, 0, 0))
+
+
 def main():
     out = os.path.join(os.path.dirname(__file__), "..", "demos", "scenes")
-    for s in (heavy_on_pyramid(), heavy_on_light(), chains(), fast(), overlap(), arch(), ramp_stack(), spin()):
+    folded_cloth_obj(os.path.join(os.path.dirname(__file__), "..", "demos", "meshes", "folded-cloth.obj"))
+    for s in (heavy_on_pyramid(), heavy_on_light(), chains(), fast(), overlap(), arch(), ramp_stack(), spin(),
+              soft_drape(), soft_pressure(), soft_collide(), soft_fold(), soft_tunnel()):
         with open(os.path.join(out, s["name"] + ".json"), "w") as f:
             json.dump(s, f, indent=1)
             f.write("\n")

@@ -569,6 +569,32 @@ TEST_CASE("bench coupling prints one JSON line per scene and strategy", "[tool][
     CHECK_THAT(bad.err, Contains("no-such-scene"));
 }
 
+TEST_CASE("bench robustness runs a soft hard scene under each soft method and judges it", "[tool][bench]") {
+    // hard-soft-fold (2 s, 231 particles): every soft method keeps the folded cloth's upper layer on the
+    // lower one, the two thicknesses (20 mm) apart within 3 mm; semi-implicit Euler's links are capped at
+    // its stability limit and the note says so. An unknown scene is refused before anything runs.
+    const std::string dir = quote(kSource + "/demos/scenes");
+    const Result r = sinew_cmd("bench robustness --scenes hard-soft-fold --engines sinew --scene-dir " + dir);
+    INFO("stdout: " << r.out << "\nstderr: " << r.err);
+    REQUIRE(r.exited);
+    CHECK(r.status == 0);
+    const std::vector<std::string> lines = lines_of(r.out);
+    REQUIRE(lines.size() == 4);
+    const char* variants[] = {"verlet-it10", "semi-implicit", "implicit-cg100", "fast-ms-it3"};
+    for (int k = 0; k < 4; ++k) {
+        const nlohmann::json j = nlohmann::json::parse(lines[std::size_t(k)]);
+        CHECK(j["variant"] == variants[k]);
+        CHECK(j["steps"] == 120);
+        CHECK(j["pass"] == true);
+        CHECK(j["value"].get<double>() == Approx(0.02).margin(0.003));
+    }
+    CHECK_THAT(nlohmann::json::parse(lines[1])["note"].get<std::string>(), Contains("capped"));
+    const Result bad = sinew_cmd("bench robustness --scenes hard-soft-nothing --scene-dir " + dir);
+    REQUIRE(bad.exited);
+    CHECK(bad.status == 1);
+    CHECK_THAT(bad.err, Contains("hard-soft-nothing"));
+}
+
 TEST_CASE("compare runs a scene under each strategy against a converged reference", "[tool][compare]") {
     // Half a second of box-on-soft-block under one-way and two-way (two variants each) against two-way at
     // h/8: one line for the reference's own check, one per variant. Two-way tracks the reference within

@@ -421,8 +421,12 @@ const Command bench_command = {
     "Runs the hard scenes (default: hard-heavy-on-pyramid, hard-heavy-on-light, hard-chain, hard-fast,\n"
     "hard-overlap, hard-arch, hard-ramp-stack, hard-spin; written by scripts/hard_scenes.py) under each\n"
     "Sinew solver (engine sinew; variants soft-step, split-impulse, baumgarte, newton) and Bullet (where\n"
-    "it can build the scene: rigid bodies and ball joints). Each scene has one physical figure checked\n"
-    "against a limit from its analytic answer (the scene's description). One JSON line per run: scene,\n"
-    "engine, variant, steps, ms_per_step_median (thread CPU), figure, value, limit, pass, finite, note.\n"
-    "--markdown rewrites the bench-robustness section: a pass/fail matrix.\n"};
+    "it can build the scene: rigid bodies and ball joints); and the soft ones (hard-soft-drape,\n"
+    "hard-soft-pressure, hard-soft-collide, hard-soft-fold, hard-soft-tunnel) under each soft method\n"
+    "(variants verlet-it10, semi-implicit, implicit-cg100, fast-ms-it3; semi-implicit's links capped at\n"
+    "its stability limit) and Bullet's btSoftBody (variant btSoftBody, on drape and pressure). Each\n"
+    "scene has one physical figure checked against a limit from its analytic answer (the scene's\n"
+    "description). One JSON line per run: scene, engine, variant, steps, ms_per_step_median (thread\n"
+    "CPU), figure, value, limit, pass, finite, note. --markdown rewrites the bench-robustness and\n"
+    "bench-robustness-soft sections: pass/fail matrices.\n"};
 }  // namespace sinew::tool

@@ -3,8 +3,11 @@
 // The hard scenes (demos/scenes/hard-*.json, written by scripts/hard_scenes.py): each one a place where
 // rigid solvers are known to fail. Every scene runs under each Sinew solver and under Bullet (where Bullet
 // can build it), and one physical figure per scene is checked against a limit drawn from the scene's
-// analytic answer (the scene's description says which). One JSON line per (scene, engine, variant); with
-// --markdown, a pass/fail matrix in the bench-robustness section of a results file.
+// analytic answer (the scene's description says which). The soft hard scenes (hard-soft-*: soft bodies
+// under contact, issue 14 item 7) run under each soft method instead, and under Bullet's btSoftBody where
+// its peer can build them (one soft body against a static sphere and ground). One JSON line per (scene,
+// engine, variant); with --markdown, pass/fail matrices in the bench-robustness and
+// bench-robustness-soft sections of a results file.
 #include "tools/bench/bench_robustness.hpp"
 
 #include <algorithm>
@@ -16,6 +19,7 @@
 #include <stdexcept>
 
 #include "engine/world/scene.hpp"
+#include "engine/world/world.hpp"
 #include "tools/bench/bench_cloth.hpp"  // BenchClock
 #include "tools/bench/bench_rigid.hpp"
 #include "tools/bench/peers.hpp"
@@ -28,7 +32,11 @@ namespace sinew::bench {
 namespace {
 
 const char* kHardScenes[] = {"hard-heavy-on-pyramid", "hard-heavy-on-light", "hard-chain", "hard-fast",
-                             "hard-overlap", "hard-arch", "hard-ramp-stack", "hard-spin"};
+                             "hard-overlap", "hard-arch", "hard-ramp-stack", "hard-spin",
+                             "hard-soft-drape", "hard-soft-pressure", "hard-soft-collide", "hard-soft-fold",
+                             "hard-soft-tunnel"};
+
+bool soft_scene(const std::string& name) { return name.rfind("hard-soft-", 0) == 0; }
 
 struct Solver {
     const char* variant;
@@ -38,6 +46,18 @@ const Solver kSolvers[] = {{"soft-step", RigidSolverKind::SoftStep},
                            {"split-impulse", RigidSolverKind::SplitImpulse},
                            {"baumgarte", RigidSolverKind::Baumgarte},
                            {"newton", RigidSolverKind::Newton}};
+
+/// The soft methods each soft hard scene runs under, with their iterations: Verlet's relaxations, implicit
+/// Euler's CG cap, fast mass-spring's local/global iterations (the settings `bench cloth` charts).
+struct SoftColumn {
+    const char* variant;
+    SoftMethod method;
+    int iterations;
+};
+const SoftColumn kSoftColumns[] = {{"verlet-it10", SoftMethod::Verlet, 10},
+                                   {"semi-implicit", SoftMethod::SemiImplicitEuler, 1},
+                                   {"implicit-cg100", SoftMethod::ImplicitEuler, 100},
+                                   {"fast-ms-it3", SoftMethod::FastMassSpring, 3}};
 
 struct HardRun {
     std::string scene, engine, variant;
@@ -257,6 +277,236 @@ std::unique_ptr<Check> make_check(const SceneDesc& s) {
     throw SceneError(s.file, "/name", "the robustness benchmark has no check for scene '" + n + "'");
 }
 
+// ---- Soft bodies under contact ----------------------------------------------------------------------
+
+/// A soft scene's check: fed the world after every step; `finish` fills figure, limit, below and note.
+class SoftCheck {
+public:
+    virtual ~SoftCheck() = default;
+    virtual void sample(const World& w) = 0;
+    virtual void finish(const World& w, HardRun& r) = 0;
+};
+
+const SoftBody& soft_body(const World& w, std::size_t k) { return w.soft().body(w.soft().bodies()[k]); }
+
+/// The largest link stretch (current / rest length) at the end, against issue 5's 1.10.
+class StretchCheck final : public SoftCheck {
+public:
+    void sample(const World&) override {}
+    void finish(const World& w, HardRun& r) override {
+        r.figure_name = "largest link stretch at the end";
+        for (std::size_t k = 0; k < w.soft().bodies().size(); ++k)
+            r.figure = std::max(r.figure, double(soft_body(w, k).max_stretch()));
+        r.limit = 1.10;
+    }
+};
+
+/// The closed body's volume at the end within 10% of its rest volume, and never below the isothermal gas's
+/// energy bound on the way down (0.80 of it).
+class VolumeCheck final : public SoftCheck {
+public:
+    void sample(const World& w) override { lowest_ = std::min(lowest_, ratio(w)); }
+    void finish(const World& w, HardRun& r) override {
+        r.figure_name = "volume error at the end (fraction of rest)";
+        r.figure = std::abs(ratio(w) - 1);
+        r.limit = 0.1;
+        if (lowest_ < 0.8) {
+            char buf[96];
+            std::snprintf(buf, sizeof buf, "lowest %.3f on the way (bound 0.80)", lowest_);
+            r.note = buf;
+        }
+    }
+
+private:
+    static double ratio(const World& w) {
+        const SoftBody& b = soft_body(w, 0);
+        return b.rest_volume > 0 ? double(b.volume() / b.rest_volume) : 0.0;
+    }
+    double lowest_ = 1e30;
+};
+
+/// Generalised winding number of the closed triangle surface of `b` around `p` (Jacobson et al. 2013:
+/// the solid angles of its triangles over 4 pi; 1 inside, 0 outside).
+double winding_number(const SoftBody& b, const Vec3& p) {
+    double total = 0;
+    for (std::size_t t = 0; t + 2 < b.triangles.size(); t += 3) {
+        const Vec3 a = b.p.x[b.triangles[t]] - p, c = b.p.x[b.triangles[t + 1]] - p, d = b.p.x[b.triangles[t + 2]] - p;
+        const double la = double(a.norm()), lc = double(c.norm()), ld = double(d.norm());
+        // Van Oosterom & Strackee 1983: tan(omega / 2) = det / (la lc ld + (a.c) ld + (a.d) lc + (c.d) la).
+        const double det = double(a.dot(c.cross(d)));
+        const double den = la * lc * ld + double(a.dot(c)) * ld + double(a.dot(d)) * lc + double(c.dot(d)) * la;
+        total += 2 * std::atan2(det, den);
+    }
+    return total / (4 * 3.14159265358979);
+}
+
+/// Two closed bodies thrown at each other: the most particles of either found inside the other's surface
+/// at the end of any step (each body's surface is closed, so inside is its winding number above one half).
+class InsideCheck final : public SoftCheck {
+public:
+    void sample(const World& w) override {
+        const SoftBody& a = soft_body(w, 0);
+        const SoftBody& b = soft_body(w, 1);
+        int inside = 0;
+        for (const Vec3& x : a.p.x) inside += std::abs(winding_number(b, x)) > 0.5;
+        for (const Vec3& x : b.p.x) inside += std::abs(winding_number(a, x)) > 0.5;
+        most_ = std::max(most_, inside);
+    }
+    void finish(const World&, HardRun& r) override {
+        r.figure_name = "most particles inside the other body";
+        r.figure = most_;
+        r.limit = 0;
+    }
+
+private:
+    int most_ = 0;
+};
+
+/// The folded cloth of scripts/hard_scenes.py (node (i, k) = vertex 11 i + k; i > 10 the upper layer, laid
+/// back over node 20 - i): the least height of the upper layer's inner nodes (away from the fold and the
+/// rim) above the nodes under them, at the end.
+class FoldCheck final : public SoftCheck {
+public:
+    void sample(const World&) override {}
+    void finish(const World& w, HardRun& r) override {
+        const Particles& p = soft_body(w, 0).p;
+        r.figure_name = "least height of the upper layer above the lower (m)";
+        r.limit = 0.017;
+        r.below = false;
+        if (p.size() != 21 * 11) {
+            r.note = "not the folded cloth of scripts/hard_scenes.py";
+            return;
+        }
+        r.figure = 1e30;
+        for (int i = 13; i + 1 < 21; ++i)
+            for (int k = 1; k + 1 < 11; ++k)
+                r.figure = std::min(r.figure, double(p.x[std::size_t(i * 11 + k)].y() - p.x[std::size_t((20 - i) * 11 + k)].y()));
+    }
+};
+
+/// A cloth thrown along +x at a wall: how far any particle's centre got past the wall's near face less the
+/// particle's thickness, over the run.
+class TunnelCheck final : public SoftCheck {
+public:
+    explicit TunnelCheck(const SceneDesc& s) {
+        const SceneBody& wall = s.bodies.at(body_index(s, "wall"));
+        stop_ = double(wall.def.pose.p.x() - wall.def.shape.half_extents.x()) -
+                double(s.soft_bodies.at(0).def.thickness);
+    }
+    void sample(const World& w) override {
+        for (const Vec3& x : soft_body(w, 0).p.x) furthest_ = std::max(furthest_, double(x.x()));
+    }
+    void finish(const World&, HardRun& r) override {
+        r.figure_name = "furthest past the wall's face (m)";
+        r.figure = std::max(0.0, furthest_ - stop_);
+        r.limit = 0.005;
+    }
+
+private:
+    double stop_ = 0, furthest_ = -1e30;
+};
+
+std::unique_ptr<SoftCheck> make_soft_check(const SceneDesc& s) {
+    const std::string& n = s.name;
+    if (n == "hard-soft-drape") return std::make_unique<StretchCheck>();
+    if (n == "hard-soft-pressure") return std::make_unique<VolumeCheck>();
+    if (n == "hard-soft-collide") {
+        if (s.soft_bodies.size() != 2) throw SceneError(s.file, "/soft_bodies", "hard-soft-collide needs two soft bodies");
+        return std::make_unique<InsideCheck>();
+    }
+    if (n == "hard-soft-fold") return std::make_unique<FoldCheck>();
+    if (n == "hard-soft-tunnel") return std::make_unique<TunnelCheck>(s);
+    throw SceneError(s.file, "/name", "the robustness benchmark has no check for scene '" + n + "'");
+}
+
+/// The scene with every soft body under `column`'s method and iterations. Semi-implicit Euler is stable
+/// only while omega h < 2; its links are softened to where the stiffest particle stays at half that bound
+/// by Gershgorin's estimate, omega^2 <= 2 d k / m for a particle of mass m with d links: k <= m / (h^2 d).
+/// Returns the stiffness it was capped at (0 if none was).
+double soft_column_scene(SceneDesc& s, const SoftColumn& column) {
+    double capped = 0;
+    const double h = double(s.settings.time_step);
+    for (SceneSoftBody& sb : s.soft_bodies) {
+        SoftBodyDef& d = sb.def;
+        d.method = column.method;
+        d.iterations = column.iterations;
+        if (column.method != SoftMethod::SemiImplicitEuler || d.links.empty()) continue;
+        std::vector<int> degree(d.positions.size(), 0);
+        for (const Link& l : d.links) ++degree[l.a], ++degree[l.b];
+        double k_max = 1e30;
+        for (std::size_t i = 0; i < degree.size(); ++i)
+            if (degree[i] > 0) k_max = std::min(k_max, double(d.masses[i]) / (h * h * degree[i]));
+        for (Link& l : d.links)
+            if (double(l.stiffness) > k_max) {
+                l.stiffness = Real(k_max);
+                capped = k_max;
+            }
+    }
+    return capped;
+}
+
+HardRun run_soft_one(const SceneDesc& scene, const SoftColumn& column, BenchClock clock) {
+    HardRun r;
+    r.scene = scene.name;
+    r.engine = "sinew";
+    r.variant = column.variant;
+    SceneDesc s = scene;
+    const double capped = soft_column_scene(s, column);
+    std::unique_ptr<World> w = build_world(s);
+    std::unique_ptr<SoftCheck> check = make_soft_check(s);
+    std::vector<double> ms;
+    for (int i = 0; i < s.steps; ++i) {
+        const double t0 = bench_clock_ms(clock);
+        w->step();
+        ms.push_back(bench_clock_ms(clock) - t0);
+        if (!w->soft().all_finite() || !w->soft().faults().empty()) {
+            r.finite = false;
+            break;
+        }
+        check->sample(*w);
+        ++r.steps;
+    }
+    r.ms_per_step_median = median(ms);
+    check->finish(*w, r);
+    if (capped > 0) {
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "links capped at %.3g N/m (stability)", capped);
+        r.note = r.note.empty() ? buf : r.note + "; " + buf;
+    }
+    r.pass = r.finite && (r.below ? r.figure <= r.limit : r.figure >= r.limit) &&
+             (r.note.empty() || r.note.rfind("links capped", 0) == 0);
+    return r;
+}
+
+/// Bullet's btSoftBody on the scenes its peer builds (one cloth or pressure ball against a static sphere
+/// and ground: hard-soft-drape and hard-soft-pressure), judged by the same figure at the end.
+HardRun run_bullet_soft_hard(const SceneDesc& scene, BenchClock clock) {
+    HardRun r;
+    r.scene = scene.name;
+    r.engine = "bullet";
+    r.variant = "btSoftBody";
+    if (scene.name != "hard-soft-drape" && scene.name != "hard-soft-pressure")
+        throw SceneError(scene.file, "", "not a scene Bullet's peer builds");
+    const ClothScene cs = cloth_scene_from(scene);  // SceneError: not a scene the peer builds
+    const ClothRun c = run_bullet_soft(cs, scene.steps, clock);
+    r.steps = c.steps;
+    r.ms_per_step_median = c.ms_per_step_median;
+    r.finite = c.finite;
+    if (scene.name == "hard-soft-drape") {
+        r.figure_name = "largest link stretch at the end";
+        r.figure = c.max_stretch;
+        r.limit = 1.10;
+    } else {
+        r.figure_name = "volume error at the end (fraction of rest)";
+        r.figure = std::abs(c.volume_ratio - 1);
+        r.limit = 0.1;
+    }
+    r.pass = r.finite && (r.below ? r.figure <= r.limit : r.figure >= r.limit);
+    return r;
+}
+
+// ---- Rigid bodies -------------------------------------------------------------------------------------
+
 class SinewHard final : public RigidContender {
 public:
     SinewHard(const SceneDesc& scene, const Solver& v, int iterations) {
@@ -353,7 +603,7 @@ std::string markdown(const std::vector<HardRun>& runs, const std::vector<std::st
             if (!hit) md << " - |";
             else if (hit->figure_name.empty()) md << " not run: " << hit->note << " |";
             else {
-                std::snprintf(buf, sizeof buf, " %s %.4g, %.2f ms%s%s |", hit->pass ? "pass" : "**FAIL**", hit->figure,
+                std::snprintf(buf, sizeof buf, " %s %.5g, %.2f ms%s%s |", hit->pass ? "pass" : "**FAIL**", hit->figure,
                               hit->ms_per_step_median, hit->finite ? "" : ", blew up",
                               hit->note.empty() ? "" : (", " + hit->note).c_str());
                 md << buf;
@@ -389,16 +639,46 @@ int cmd_bench_robustness(const std::vector<std::string>& args) {
             if (o == engine || o == engine + "/" + variant) return true;
         return false;
     };
-    std::vector<std::string> columns;
+    std::vector<std::string> columns, soft_columns;
     for (const Solver& v : kSolvers)
         if (wanted("sinew", v.variant)) columns.push_back(std::string("sinew ") + v.variant);
     const bool bullet = wanted("bullet", "default") && bullet_peer_available();
     if (bullet) columns.push_back("bullet default");
-    std::vector<HardRun> runs;
+    for (const SoftColumn& v : kSoftColumns)
+        if (wanted("sinew", v.variant)) soft_columns.push_back(std::string("sinew ") + v.variant);
+    const bool bullet_soft = wanted("bullet", "btSoftBody") && bullet_peer_available();
+    if (bullet_soft) soft_columns.push_back("bullet btSoftBody");
+    std::vector<SceneDesc> loaded;
     for (const std::string& name : scenes) {
-        const SceneDesc scene = parse_scene_file(scene_dir + "/" + name + ".json");  // SceneError: exit 1
-        make_check(scene);  // an unknown scene is refused before anything runs
+        loaded.push_back(parse_scene_file(scene_dir + "/" + name + ".json"));  // SceneError: exit 1
+        // An unknown scene is refused before anything runs.
+        if (soft_scene(name)) make_soft_check(loaded.back());
+        else make_check(loaded.back());
+    }
+    std::vector<HardRun> runs, soft_runs;
+    for (const SceneDesc& scene : loaded) {
+        const std::string& name = scene.name;
         std::cerr << "bench robustness: " << name << "...\n";
+        if (soft_scene(name)) {
+            for (const SoftColumn& v : kSoftColumns) {
+                if (!wanted("sinew", v.variant)) continue;
+                soft_runs.push_back(run_soft_one(scene, v, BenchClock::ThreadCpu));
+                std::cout << to_json(soft_runs.back()) << std::endl;
+            }
+            if (!bullet_soft) continue;
+            try {
+                soft_runs.push_back(run_bullet_soft_hard(scene, BenchClock::ThreadCpu));
+            } catch (const SceneError&) {
+                HardRun r;
+                r.scene = name;
+                r.engine = "bullet";
+                r.variant = "btSoftBody";
+                r.note = "its peer builds one soft body against a static sphere and ground only";
+                soft_runs.push_back(r);
+            }
+            std::cout << to_json(soft_runs.back()) << std::endl;
+            continue;
+        }
         for (const Solver& v : kSolvers) {
             if (!wanted("sinew", v.variant)) continue;
             SinewHard c(scene, v, iterations);
@@ -423,9 +703,12 @@ int cmd_bench_robustness(const std::vector<std::string>& args) {
             std::cout << to_json(runs.back()) << std::endl;
         }
     }
-    if (!markdown_file.empty() && !replace_section(markdown_file, "bench-robustness", markdown(runs, columns))) {
-        std::cerr << "sinew bench: could not write " << markdown_file << "\n";
-        return 1;
+    if (!markdown_file.empty()) {
+        if ((!runs.empty() && !replace_section(markdown_file, "bench-robustness", markdown(runs, columns))) ||
+            (!soft_runs.empty() && !replace_section(markdown_file, "bench-robustness-soft", markdown(soft_runs, soft_columns)))) {
+            std::cerr << "sinew bench: could not write " << markdown_file << "\n";
+            return 1;
+        }
     }
     return 0;
 }

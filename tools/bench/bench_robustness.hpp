@@ -1,5 +1,6 @@
-// `sinew bench robustness`: the hard scenes (demos/scenes/hard-*.json), each where rigid solvers are known
-// to fail, under every Sinew solver and Bullet, each checked against the scene's physical answer.
+// `sinew bench robustness`: the hard scenes (demos/scenes/hard-*.json), each where rigid solvers (or, for
+// hard-soft-*, soft bodies under contact) are known to fail, under every Sinew solver (soft method) and
+// Bullet, each checked against the scene's physical answer.
 #pragma once
 
 #include <string>
