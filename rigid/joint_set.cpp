@@ -543,6 +543,20 @@ void JointSet::warm_start(const RigidSystem& sys, const BodyVelocities& vel) {
         if (m.slots.alive(s)) warm_start_joint(m.joints[s], m.rows[s], st, pass);  // skip joints destroyed since prepare()
 }
 
+void JointSet::positions_advanced(const RigidSystem& sys, const BodyVelocities&, Real) {
+    // The soft step turned the bodies between its passes (RigidSystem::follow_turn): the rows' inverse
+    // inertia turns with them, as their arms do (PairPose reads the orientation now). The other solvers
+    // keep their prepared (mass-ratio bounded) values: they move bodies once, after their last pass.
+    Impl& m = *impl_;
+    if (m.correction != Impl::Correction::Soft) return;
+    const RigidSystem::State& st = sys.state();
+    for (std::uint32_t s : m.active) {
+        JointRows& r = m.rows[s];
+        r.ia = st.inv_inertia_world[r.a];
+        r.ib = st.inv_inertia_world[r.b];
+    }
+}
+
 void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();

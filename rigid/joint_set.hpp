@@ -77,6 +77,7 @@ public:
     void prepare(RigidSystem& sys, const RowStep& step) override;
     void warm_start(const RigidSystem& sys, const BodyVelocities& vel) override;
     void solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) override;
+    void positions_advanced(const RigidSystem& sys, const BodyVelocities& vel, Real h) override;
     /// Once per step, after positions are integrated: projects the joints' position error out when
     /// prepare() chose projection (sequential impulses with split impulses), records each joint's reaction
     /// force, and breaks joints over their break_force (broken() lists them until the next finish()).

@@ -345,6 +345,11 @@ public:
     /// it): with the gyroscopic term on and an anisotropic body, about w taken at the mid-step
     /// orientation with the angular momentum kept (rigid/rigid_integration.cpp), else about w itself.
     Quat turned(std::uint32_t s, const Vec3& w, Real h) const;
+    /// Body s was just turned by a solver between two passes of the same step (the soft step's sub-steps):
+    /// its angular velocity follows the rotation with its angular momentum kept, and its world inverse
+    /// inertia is turned with it, so impulses of the next pass (computed at the new orientation) land in
+    /// the frame the angular velocity is in (rigid/rigid_integration.cpp).
+    void follow_turn(std::uint32_t s);
     /// Inverse-mass scales for a contact between slots a and b this step (1 and 1 unless the contact
     /// holds a body up under one more than RigidSettings::contact_mass_ratio times heavier: then the
     /// supporting body's inverse mass and inverse inertia are scaled so the ratio seen by the contact is
