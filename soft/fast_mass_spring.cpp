@@ -218,16 +218,44 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
 // right-hand side, A x = b + N λ. As Baraff & Witkin (1998 §5.3) do for implicit Euler, a contact is an
 // equality while it is active and is released for the next step when its force pulls: a particle whose
 // plane pulled last step (`released`) is left to the contact pass this step.
-void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision& collision) {
+void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision& collision, Real h) {
     c.contacts.clear();
     if (c.released.size() != b.p.size()) c.released.assign(b.p.size(), 0);
+    // How many planes each particle has, and the first one's normal: friction's tangent rows must not
+    // fight a second plane's normal row (at a box's edge one plane's tangent is the other's normal).
+    c.planes_at.assign(b.p.size(), 0);
+    c.first_plane.resize(b.p.size());
+    for (std::size_t k = 0; k < collision.plane_count(); ++k) {
+        const std::uint32_t i = collision.plane(k).particle;
+        if (c.planes_at[i] == 0) c.first_plane[i] = std::uint32_t(k);
+        if (c.planes_at[i] < 3) ++c.planes_at[i];
+    }
     for (std::size_t k = 0; k < collision.plane_count(); ++k) {
         const ParticleCollision::PlaneView pl = collision.plane(k);
         const int r = c.row[pl.particle];
         if (r < 0 || c.released[pl.particle]) continue;  // pinned or attached (not an unknown), or released
         // The approach the hold will remove: the particle's normal speed into the plane before the solve.
         const Real approach = std::max(Real(0), -pl.normal.dot(b.p.v[pl.particle] - pl.velocity));
-        c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness), 0.0, approach});
+        c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness),
+                              0.0, approach, pl.friction, false});
+        if (!(pl.friction > 0)) continue;
+        // Friction: tangent rows holding the particle where it started the step, moved with the surface
+        // (static friction), clamped to the Coulomb cone after the solve (hold_contacts). A particle on
+        // two planes (an edge) is held along the edge only, from its second plane, and on three none.
+        Vec3 t[2];
+        int rows = 2;
+        if (c.planes_at[pl.particle] == 1) {
+            tangent_basis(pl.normal, t[0], t[1]);
+        } else {
+            if (c.planes_at[pl.particle] > 2 || c.first_plane[pl.particle] == k) continue;
+            const Vec3 edge = collision.plane(c.first_plane[pl.particle]).normal.cross(pl.normal);
+            if (!(edge.norm() > Real(0.1))) continue;  // nearly parallel planes: no edge to slide along
+            t[0] = edge.normalized();
+            rows = 1;
+        }
+        const Vec3 stuck = b.p.x_prev[pl.particle] + h * pl.velocity;
+        for (int q = 0; q < rows; ++q)
+            c.contacts.push_back({std::uint32_t(k), pl.particle, r, t[q], double(t[q].dot(stuck)), 0.0, 0, 0, true});
     }
 }
 
@@ -249,19 +277,18 @@ void add_contact_forces(FastMassSpringCache& c) {
 // after `max_iterations` products. The forces stay signed, and X agrees with them: clamping a pulling
 // force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate in
 // sign between neighbours) and launch the body; a pull is released for the next step instead.
-int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) {
+// One conjugate-gradient solve over the active rows (with or without the tangent rows; rows left out keep
+// their forces), from the residuals at X = c.rhs. Returns the products it took.
+int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, bool tangents) {
     const std::size_t m = c.contacts.size();
-    c.cg_r.resize(m);
-    c.cg_p.resize(m);
-    c.cg_q.resize(m);
-    c.cg_u.resize(c.rhs.size());
-    // Residual r = offset - n · X over the active contacts (0 elsewhere: they stay out of the solve).
+    const auto in_solve = [&](std::size_t k) { return c.cg_active[k] && (tangents || !c.contacts[k].tangent); };
+    // Residual r = offset - d · X over the rows in the solve (0 elsewhere: they stay out of it).
     double rr = 0, worst = 0;
     for (std::size_t k = 0; k < m; ++k) {
         const FastMassSpringCache::ContactRow& ct = c.contacts[k];
         const double* x = &c.rhs[3 * std::size_t(ct.row)];
         const double gap = double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2] - ct.offset;
-        c.cg_r[k] = gap < 0 || ct.force != 0 ? -gap : 0.0;
+        c.cg_r[k] = in_solve(k) ? -gap : 0.0;
         c.cg_p[k] = c.cg_r[k];
         rr += c.cg_r[k] * c.cg_r[k];
         worst = std::max(worst, std::abs(c.cg_r[k]));
@@ -297,6 +324,74 @@ int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) 
         for (std::size_t k = 0; k < m; ++k) c.cg_p[k] = c.cg_r[k] + beta * c.cg_p[k];
     }
     return it;
+}
+
+// Holds the global step's solution X (in c.rhs) on the collision planes: the contacts that X penetrates,
+// or that already hold a force, get force changes Δλ with n_k · (X + A⁻¹ N Δλ)_k = offset_k, solved by
+// conjugate gradients on the Schur complement S = Nᵀ A⁻¹ N (symmetric positive definite: A is), each
+// product one more pair of triangular solves. A contact force spreads through A⁻¹ over the whole body:
+// the links carry the reaction in the same step, where a projection after the solve stops the touching
+// particle alone and its links learn of it a step later (a fast mass-spring pressure ball crumpled to a
+// quarter of its volume on landing that way). Stops when every active gap is within `tolerance` (m) or
+// after `max_iterations` products. The forces stay signed, and X agrees with them: clamping a pulling
+// force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate in
+// sign between neighbours) and launch the body; a pull is released for the next step instead.
+//
+// Friction the same way: an active contact's tangent rows hold its particle where it started the step
+// (static friction) in the same solve; each contact's tangential force is then clamped to the Coulomb
+// cone, mu times its normal force (sliding: kinetic friction along the force the stick would have
+// needed), X follows the clamped forces, and the normal rows are solved again with the tangential forces
+// held. Applied after the solve instead, as a velocity change with the tangential motion taken back, it
+// moved particles the links did not see: a tablecloth's sides climbed back over the table's edges.
+int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) {
+    const std::size_t m = c.contacts.size();
+    c.cg_r.resize(m);
+    c.cg_p.resize(m);
+    c.cg_q.resize(m);
+    c.cg_active.resize(m);
+    c.cg_u.resize(c.rhs.size());
+    // Active: the normal rows X penetrates or that hold a force, and the tangent rows of those.
+    bool normal_active = false;
+    bool any_tangent = false;
+    for (std::size_t k = 0; k < m; ++k) {
+        const FastMassSpringCache::ContactRow& ct = c.contacts[k];
+        if (ct.tangent) {
+            c.cg_active[k] = normal_active;
+            any_tangent = any_tangent || normal_active;
+            continue;
+        }
+        const double* x = &c.rhs[3 * std::size_t(ct.row)];
+        const double gap = double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2] - ct.offset;
+        normal_active = gap < 0 || ct.force != 0;
+        c.cg_active[k] = normal_active;
+    }
+    int it = contact_cg(c, tolerance, max_iterations, true);
+    if (!any_tangent) return it;
+    // The Coulomb cone: |f_t| <= mu max(f_n, 0).
+    bool clamped = false;
+    std::fill(c.cg_u.begin(), c.cg_u.end(), 0.0);
+    for (std::size_t k = 0; k < m; ++k) {
+        const FastMassSpringCache::ContactRow& ct = c.contacts[k];
+        if (ct.tangent) continue;
+        std::size_t end = k + 1;  // its tangent rows: [k + 1, end)
+        double len2 = 0;
+        for (; end < m && c.contacts[end].tangent; ++end) len2 += c.contacts[end].force * c.contacts[end].force;
+        const double limit = double(ct.mu) * std::max(ct.force, 0.0);
+        const double len = std::sqrt(len2);
+        if (len <= limit) continue;
+        const double scale = len > 0 ? limit / len : 0.0;
+        for (std::size_t j = k + 1; j < end; ++j) {
+            FastMassSpringCache::ContactRow& t = c.contacts[j];
+            const double d = t.force * (scale - 1);
+            t.force += d;
+            for (int a = 0; a < 3; ++a) c.cg_u[3 * std::size_t(t.row) + a] += d * double(t.normal[a]);
+        }
+        clamped = true;
+    }
+    if (!clamped) return it;
+    solve_in_place(c, c.cg_u);
+    for (std::size_t i = 0; i < c.rhs.size(); ++i) c.rhs[i] += c.cg_u[i];
+    return it + 1 + contact_cg(c, tolerance, max_iterations, false);
 }
 
 }  // namespace
@@ -378,7 +473,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     // five times the cost, while the 1k and 5k blocks improved (accuracy 0.98 against 0.96 and 0.90):
     // not understood yet (docs/fem.md).
     c.contacts.clear();
-    if (collision && iterations > 0 && !b.fem) gather_contacts(b, c, *collision);
+    if (collision && iterations > 0 && !b.fem) gather_contacts(b, c, *collision, h);
     // A release lasts one step, whether this step gathered planes or not (airborne, the flags of the last
     // contact would otherwise wait for the next one).
     std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));
@@ -420,11 +515,20 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         }
     }
 
-    // The impulse each plane held its particle with, for the contact pass (friction, restitution, reports);
-    // one that pulled is released for the next step.
-    for (const FastMassSpringCache::ContactRow& ct : c.contacts) {
+    // The impulse each plane held its particle with, for the contact pass (friction budget, restitution,
+    // reports); one that pulled is released for the next step. A plane's friction was applied here too
+    // (whatever its normal force ended at: the tangential forces are in the positions): the contact pass
+    // applies none there and reports this one, so a coupling layer sends the whole impulse back.
+    for (std::size_t k = 0; k < c.contacts.size(); ++k) {
+        const FastMassSpringCache::ContactRow& ct = c.contacts[k];
+        if (ct.tangent) continue;
         collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         if (ct.force < 0) c.released[ct.particle] = 1;
+        if (k + 1 >= c.contacts.size() || !c.contacts[k + 1].tangent) continue;
+        Vec3 friction = Vec3::Zero();
+        for (std::size_t j = k + 1; j < c.contacts.size() && c.contacts[j].tangent; ++j)
+            friction += Real(c.contacts[j].force * double(h)) * c.contacts[j].normal;
+        collision->set_held_friction(ct.plane, friction);
     }
 
     const Real inv_h = Real(1) / h;

@@ -31,6 +31,9 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     planes_.clear();
     held_.clear();
     held_approach_.clear();
+    held_friction_.clear();
+    friction_held_.clear();
+    body_friction_ = b.def.friction;
     correction_.assign(b.p.size(), Vec3::Zero());
     if (colliders.empty() || b.p.size() == 0) return;
     // How far a particle may get this step: its speed and the largest acceleration (gravity plus the
@@ -110,6 +113,8 @@ void ParticleCollision::begin(const SoftBody& b, const std::vector<Collider>& co
     }
     held_.assign(planes_.size(), Real(0));
     held_approach_.assign(planes_.size(), Real(0));
+    held_friction_.assign(planes_.size(), Vec3::Zero());
+    friction_held_.assign(planes_.size(), 0);
 }
 
 Real ParticleCollision::world_plane(const Plane& pl, const Collider& col, const Vec3& x, Vec3& normal,
@@ -144,6 +149,7 @@ ParticleCollision::PlaneView ParticleCollision::plane(std::size_t k) const {
         out.normal = col.xf.q * then.rotate_inverse(pl.normal);
     }
     out.velocity = col.point_velocity(out.point);
+    out.friction = std::sqrt(std::max(Real(0), body_friction_ * col.friction));  // as finish() mixes them
     return out;
 }
 
@@ -192,7 +198,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             pc.normal = n;
             pc.point = s;
             pc.depth = std::max(Real(0), depth);
-            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h) + held_[k] * n;
+            pc.impulse = b.p.mass[i] * (dv + correction_[i] / h) + held_[k] * n + held_friction_[k];
             correction_[i].setZero();
             out.push_back(pc);
         };
@@ -200,7 +206,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
             // Out of reach now, but the relaxation pushed it during the step (its links pulled it away
             // since): that push is in its velocity, so it is reported, or a coupling layer sending the
             // reactions back would lose it (0.2% of a Verlet cloth's momentum per impact).
-            if (!correction_[i].isZero() || held_[k] != 0) record(Vec3::Zero(), 0);
+            if (!correction_[i].isZero() || held_[k] != 0 || friction_held_[k]) record(Vec3::Zero(), 0);
             continue;
         }
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * col.friction));  // geometric mean
@@ -236,7 +242,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         // Coulomb friction: the tangential velocity change is at most mu times the normal one.
         const Vec3 vt = vrel - vn * n;
         const Real vt_len = vt.norm();
-        if (vt_len > 0 && !position_friction) {
+        if (vt_len > 0 && !position_friction && !friction_held_[k]) {
             // The budget counts the normal change an implicit solve's contact constraint already made.
             const Real dvt_max = mu * (removed + pushed_speed + held);
             const Vec3 dvt = -std::min(Real(1), dvt_max / vt_len) * vt;

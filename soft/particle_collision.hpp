@@ -48,6 +48,7 @@ public:
         Vec3 point = Vec3::Zero();   ///< on the collider's surface (world)
         Vec3 normal = Vec3::UnitY(); ///< outward unit normal, from the collider towards the particle
         Vec3 velocity = Vec3::Zero(); ///< of the collider's surface at `point` (m/s)
+        Real friction = 0;            ///< the particle's and the collider's coefficients combined
     };
     std::size_t plane_count() const { return planes_.size(); }
     /// Plane k (k < plane_count()), grouped by collider, then by particle.
@@ -62,6 +63,12 @@ public:
     void set_held(std::size_t k, Real impulse, Real approach) {
         held_[k] = impulse;
         held_approach_[k] = approach;
+    }
+    /// The solve also applied plane k's friction (the tangential impulse `impulse`, N s, within the
+    /// Coulomb cone of its normal one): finish() applies none there and reports this one with the contact.
+    void set_held_friction(std::size_t k, const Vec3& impulse) {
+        held_friction_[k] = impulse;
+        friction_held_[k] = 1;
     }
 
 private:
@@ -92,6 +99,9 @@ private:
     /// 0 if none.
     std::vector<Real> held_;
     std::vector<Real> held_approach_;
+    std::vector<Vec3> held_friction_;         ///< per plane: the tangential impulse a solve held it with
+    std::vector<std::uint8_t> friction_held_;  ///< per plane: 1 if the solve applied its friction
+    Real body_friction_ = 0;                  ///< the body's coefficient, for PlaneView::friction
 };
 
 }  // namespace sinew

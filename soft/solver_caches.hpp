@@ -108,18 +108,27 @@ struct FastMassSpringCache {
 
     /// The contact planes held inside the global step (soft/fast_mass_spring.cpp, "Contacts"): scratch
     /// kept between steps so the solve does not allocate once the contact count has been reached.
+    /// A plane's normal row is followed, when the contact has friction, by two tangent rows (directions
+    /// t1, t2 across the normal) that hold the particle where it started the step, moved with the
+    /// surface, within the Coulomb cone of the normal force.
     struct ContactRow {
         std::uint32_t plane;   ///< index into the step's ParticleCollision planes
         std::uint32_t particle;
         int row;               ///< the particle's row of the system
-        Vec3 normal;
-        double offset;         ///< n · x >= offset: the plane lifted by the particle's thickness
-        double force;          ///< λ, the normal force it holds the particle with (N); < 0 pulls
-        Real approach;         ///< the particle's normal speed into the plane before the solve (m/s, >= 0)
+        Vec3 normal;           ///< the row's direction: the plane's normal, or a tangent of it
+        double offset;         ///< normal: n · x >= offset, the plane lifted by the particle's thickness;
+                               ///< tangent: t · x = offset, the particle's start moved with the surface
+        double force;          ///< the force along `normal` (N); a normal row's < 0 pulls
+        Real approach;         ///< normal: the particle's normal speed into the plane before the solve (m/s)
+        Real mu = 0;           ///< normal: the friction coefficient (tangent rows follow when > 0)
+        bool tangent = false;
     };
     std::vector<ContactRow> contacts;
-    std::vector<double> cg_r, cg_p, cg_q;  ///< per contact: residual (m), direction, S p
+    std::vector<double> cg_r, cg_p, cg_q;  ///< per contact row: residual (m), direction, S p
+    std::vector<std::uint8_t> cg_active;   ///< per contact row: in this solve's set
     std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
+    std::vector<std::uint8_t> planes_at;   ///< scratch: per particle, its planes this step (up to 2 counted)
+    std::vector<std::uint32_t> first_plane;  ///< scratch: per particle, its first plane
     std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last step; all its
                                            ///< planes are left to the contact pass in this one
     int contact_iterations = 0;            ///< CG products over the contacts in the last step (for measuring)
