@@ -182,6 +182,13 @@ void JointPointSolve::solve(std::vector<JointData>& joints, const std::vector<Jo
     Impl& m = *m_;
     const std::size_t n = m.slots.size();
     if (n == 0 || !m.factorable) return;
+    // The bodies' world inverse inertia as the rows hold it now (the soft step turns it with each body
+    // between its passes: JointSet::positions_advanced), so K and the impulses' effect agree.
+    for (std::size_t p = 0; p < m.bodies.size(); ++p) {
+        const End& e = m.ends[m.body_first[p]];
+        const JointRows& r = rows[m.slots[e.joint]];
+        m.inv_inertia[p] = (e.sign < 0 ? r.ia : r.ib).cast<double>();
+    }
     // gamma = impulse_scale / mass_scale: the soft rows' compliance relative to their own block.
     const double gamma = bias.mass_scale > 0 ? double(bias.impulse_scale) / double(bias.mass_scale) : 0.0;
     // Arms, errors and relative velocities at the anchors, before any impulse of this solve.

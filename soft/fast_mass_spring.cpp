@@ -221,8 +221,9 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
 void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision& collision, Real h) {
     c.contacts.clear();
     if (c.released.size() != b.p.size()) c.released.assign(b.p.size(), 0);
-    // How many planes each particle has, and the first one's normal: friction's tangent rows must not
-    // fight a second plane's normal row (at a box's edge one plane's tangent is the other's normal).
+    // How many planes each particle has (one per collider it may touch), and its first: friction's tangent
+    // rows must not fight another plane's normal row (a particle wedged between two colliders: one's
+    // tangent is the other's normal).
     c.planes_at.assign(b.p.size(), 0);
     c.first_plane.resize(b.p.size());
     for (std::size_t k = 0; k < collision.plane_count(); ++k) {
@@ -241,7 +242,8 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
         if (!(pl.friction > 0)) continue;
         // Friction: tangent rows holding the particle where it started the step, moved with the surface
         // (static friction), clamped to the Coulomb cone after the solve (hold_contacts). A particle on
-        // two planes (an edge) is held along the edge only, from its second plane, and on three none.
+        // two planes is held along their common edge only, by its second plane's row (the normals hold the
+        // rest), and on three by the normals alone.
         Vec3 t[2];
         int rows = 2;
         if (c.planes_at[pl.particle] == 1) {
@@ -267,16 +269,6 @@ void add_contact_forces(FastMassSpringCache& c) {
             for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(k.row) + a] += k.force * double(k.normal[a]);
 }
 
-// Holds the global step's solution X (in c.rhs) on the collision planes: the contacts that X penetrates,
-// or that already hold a force, get force changes Δλ with n_k · (X + A⁻¹ N Δλ)_k = offset_k, solved by
-// conjugate gradients on the Schur complement S = Nᵀ A⁻¹ N (symmetric positive definite: A is), each
-// product one more pair of triangular solves. A contact force spreads through A⁻¹ over the whole body:
-// the links carry the reaction in the same step, where a projection after the solve stops the touching
-// particle alone and its links learn of it a step later (a fast mass-spring pressure ball crumpled to a
-// quarter of its volume on landing that way). Stops when every active gap is within `tolerance` (m) or
-// after `max_iterations` products. The forces stay signed, and X agrees with them: clamping a pulling
-// force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate in
-// sign between neighbours) and launch the body; a pull is released for the next step instead.
 // One conjugate-gradient solve over the active rows (with or without the tangent rows; rows left out keep
 // their forces), from the residuals at X = c.rhs. Returns the products it took.
 int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, bool tangents) {
@@ -332,17 +324,21 @@ int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, boo
 // product one more pair of triangular solves. A contact force spreads through A⁻¹ over the whole body:
 // the links carry the reaction in the same step, where a projection after the solve stops the touching
 // particle alone and its links learn of it a step later (a fast mass-spring pressure ball crumpled to a
-// quarter of its volume on landing that way). Stops when every active gap is within `tolerance` (m) or
-// after `max_iterations` products. The forces stay signed, and X agrees with them: clamping a pulling
-// force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate in
-// sign between neighbours) and launch the body; a pull is released for the next step instead.
+// quarter of its volume on landing that way). The forces stay signed, and X agrees with them: clamping a
+// pulling force here would leave its pushing neighbours unbalanced (CG's forces on a stiff body alternate
+// in sign between neighbours) and launch the body; a pull is released for the next step instead.
 //
 // Friction the same way: an active contact's tangent rows hold its particle where it started the step
 // (static friction) in the same solve; each contact's tangential force is then clamped to the Coulomb
 // cone, mu times its normal force (sliding: kinetic friction along the force the stick would have
 // needed), X follows the clamped forces, and the normal rows are solved again with the tangential forces
-// held. Applied after the solve instead, as a velocity change with the tangential motion taken back, it
-// moved particles the links did not see: a tablecloth's sides climbed back over the table's edges.
+// held (not clamped again: a normal force that falls in that pass may leave its friction a little outside
+// the cone for the step). Applied after the solve instead, as a velocity change with the step's
+// tangential motion taken back, friction moved particles the links did not see: a tablecloth's sides
+// climbed back over the table's edges.
+//
+// Each pass stops when every active row is within `tolerance` (m) or after `max_iterations` products;
+// with friction there are two passes and one more product between them.
 int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) {
     const std::size_t m = c.contacts.size();
     c.cg_r.resize(m);
@@ -524,11 +520,17 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         if (ct.tangent) continue;
         collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         if (ct.force < 0) c.released[ct.particle] = 1;
-        if (k + 1 >= c.contacts.size() || !c.contacts[k + 1].tangent) continue;
+        // Planes the solve held (a force on the normal row or its tangent rows); a particle on two or more
+        // planes has its friction from the rows too (an edge row, or the normals alone), so none of its
+        // held planes gets the contact pass's.
         Vec3 friction = Vec3::Zero();
-        for (std::size_t j = k + 1; j < c.contacts.size() && c.contacts[j].tangent; ++j)
+        bool held = ct.force != 0;
+        for (std::size_t j = k + 1; j < c.contacts.size() && c.contacts[j].tangent; ++j) {
             friction += Real(c.contacts[j].force * double(h)) * c.contacts[j].normal;
-        collision->set_held_friction(ct.plane, friction);
+            held = held || c.contacts[j].force != 0;
+        }
+        const bool rows = (k + 1 < c.contacts.size() && c.contacts[k + 1].tangent) || c.planes_at[ct.particle] > 1;
+        if (held && rows && ct.mu > 0) collision->set_held_friction(ct.plane, friction);
     }
 
     const Real inv_h = Real(1) / h;

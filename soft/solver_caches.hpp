@@ -127,7 +127,7 @@ struct FastMassSpringCache {
     std::vector<double> cg_r, cg_p, cg_q;  ///< per contact row: residual (m), direction, S p
     std::vector<std::uint8_t> cg_active;   ///< per contact row: in this solve's set
     std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
-    std::vector<std::uint8_t> planes_at;   ///< scratch: per particle, its planes this step (up to 2 counted)
+    std::vector<std::uint8_t> planes_at;   ///< scratch: per particle, its planes this step (up to 3 counted)
     std::vector<std::uint32_t> first_plane;  ///< scratch: per particle, its first plane
     std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last step; all its
                                            ///< planes are left to the contact pass in this one

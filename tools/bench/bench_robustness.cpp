@@ -4,7 +4,7 @@
 // rigid solvers are known to fail. Every scene runs under each Sinew solver and under Bullet (where Bullet
 // can build it), and one physical figure per scene is checked against a limit drawn from the scene's
 // analytic answer (the scene's description says which). The soft hard scenes (hard-soft-*: soft bodies
-// under contact, issue 14 item 7) run under each soft method instead, and under Bullet's btSoftBody where
+// under contact, issue 14 items 7 and 8) run under each soft method instead, and under Bullet's btSoftBody where
 // its peer can build them (one soft body against a static sphere and ground). One JSON line per (scene,
 // engine, variant); with --markdown, pass/fail matrices in the bench-robustness and
 // bench-robustness-soft sections of a results file.
