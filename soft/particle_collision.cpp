@@ -227,7 +227,7 @@ void ParticleCollision::finish(SoftBody& b, std::uint32_t body_slot, Real h, std
         const Real held_here = held_[k] * b.p.inv_mass[i];
         const Real held_approach = held_here > 0 ? held_approach_[k] : Real(0);
         const Real held = (b.contact_dvn.empty() ? Real(0) : b.contact_dvn[i]) + std::max(Real(0), held_here);
-        if (vn >= 0 && depth <= 0 && correction_[i].isZero() && held == 0 && held_here == 0)
+        if (vn >= 0 && depth <= 0 && correction_[i].isZero() && held == 0 && held_here == 0 && !friction_held_[k])
             continue;  // near but separating: not a contact
         Vec3 dv = Vec3::Zero();
         const Real removed = std::max(Real(0), -vn);  // approach this pass removes
