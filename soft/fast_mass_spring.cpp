@@ -44,6 +44,7 @@
 // (det F <= 0) targets R alone. Rayleigh damping is the force-based methods' (ignored here: the drag
 // and the method's own damping act); plasticity and quadratic tets are refused under it.
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <memory>
 #include <string>
@@ -174,17 +175,16 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
             if (natural[i] >= 0) old_row[std::size_t(natural[i])] = int(i);
         for (int k = 0; k < nf; ++k) c.row[std::size_t(old_row[std::size_t(new_to_old.indices()[k])])] = k;
         c.matrix = assemble(c.row, true);
-        c.ldlt.compute(c.matrix);
-        if (c.ldlt.info() != Eigen::Success)
+        // The rows are already in AMD order: the factorization keeps them.
+        const Eigen::SimplicialLDLT<FastMassSpringCache::SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt(c.matrix);
+        if (ldlt.info() != Eigen::Success)
             throw SoftError("step_fast_mass_spring: the global matrix M/h^2 + L could not be factored (h = " +
                             std::to_string(h) + ", " + std::to_string(nf) + " free particles)");
-        const Eigen::VectorXd dvec = c.ldlt.vectorD();
-        c.inv_d.resize(std::size_t(nf));
-        for (int k = 0; k < nf; ++k) c.inv_d[std::size_t(k)] = 1.0 / dvec[k];
+        c.factor.assign(ldlt.matrixL().nestedExpression(), ldlt.vectorD());
     } else {
-        // Nothing free (every particle pinned or attached): no system to solve. The old factor stays in
-        // the cache but is never read: the step runs no local/global iteration while inv_d is empty.
-        c.inv_d.clear();
+        // Nothing free (every particle pinned or attached): no system to solve, and the step runs no
+        // local/global iteration while the factor is empty.
+        c.factor.clear();
     }
     c.inertia.assign(3 * std::size_t(nf), 0.0);
     c.rhs.assign(3 * std::size_t(nf), 0.0);
@@ -209,7 +209,7 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
 
 // Solves L D Lᵀ x = b in place, b holding 3 values per row (soft/ldlt_solve.hpp).
 void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
-    ldlt_solve_in_place<3>(c.ldlt.matrixL().nestedExpression(), c.inv_d, b.data());
+    c.factor.solve_in_place<3>(b.data());
 }
 
 // Contacts inside the global step (issue 14: seed 002 treats collisions as constraints of the
@@ -462,7 +462,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
             }
         }
     }
-    const int iterations = c.inv_d.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
+    const int iterations = c.factor.empty() ? 0 : b.def.iterations;  // no free particle: nothing to solve
     // Contacts inside the global step for mass-spring bodies only. A tet body under projective dynamics
     // keeps the projection after the solve: held inside, the 20k-tet block of `sinew bench fem` collapsed
     // on landing (11,187 inverted tets, volume 0.035, against 765 and 0.66) and ball-drop likewise, at

@@ -28,7 +28,6 @@ Eigen::Matrix3d rest_block(const FemState& s, std::size_t e, int a, int c) {
 }  // namespace
 
 struct FemRestFactor::Impl {
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
     bool ok = false;
     int factorisations = 0;
     // What the factor was built from.
@@ -38,7 +37,7 @@ struct FemRestFactor::Impl {
     // Per step.
     std::vector<Quat> node_rotation;
     std::vector<int> permutation;  ///< the factor's fill-reducing order: row i of A is row permutation[i] of P A Pᵀ
-    std::vector<double> inv_d;     ///< 1 / D
+    LdltArrays factor;             ///< the factor's L and 1 / D, laid out for the solves
     std::vector<double> work;      ///< 3 n, in the factor's order
     std::vector<double> scratch;
 };
@@ -79,15 +78,13 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
         }
         Eigen::SparseMatrix<double> A(int(3 * n), int(3 * n));
         A.setFromTriplets(t.begin(), t.end());
-        f.ldlt.compute(A);
+        const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(A);
         ++f.factorisations;
-        const bool ok = f.ldlt.info() == Eigen::Success;
+        const bool ok = ldlt.info() == Eigen::Success;
         if (ok) {
-            const auto& perm = f.ldlt.permutationP().indices();
+            const auto& perm = ldlt.permutationP().indices();
             f.permutation.assign(perm.data(), perm.data() + perm.size());
-            const Eigen::VectorXd d = f.ldlt.vectorD();
-            f.inv_d.resize(std::size_t(d.size()));
-            for (Eigen::Index k = 0; k < d.size(); ++k) f.inv_d[std::size_t(k)] = 1.0 / d[k];
+            f.factor.assign(ldlt.matrixL().nestedExpression(), ldlt.vectorD());
         }
         f.work.assign(3 * n, 0.0);
         f.node_rotation.assign(n, Quat::Identity());
@@ -131,7 +128,7 @@ void FemRestFactor::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
         const Vec3 local = f.node_rotation[i].conjugate() * r[i];
         for (int k = 0; k < 3; ++k) w[f.permutation[3 * i + std::size_t(k)]] = double(local[k]);
     }
-    ldlt_solve_in_place<1>(f.ldlt.matrixL().nestedExpression(), f.inv_d, w);
+    f.factor.solve_in_place<1>(w);
     for (std::size_t i = 0; i < n; ++i) {
         const Vec3 local{static_cast<Real>(w[f.permutation[3 * i]]), static_cast<Real>(w[f.permutation[3 * i + 1]]),
                          static_cast<Real>(w[f.permutation[3 * i + 2]])};

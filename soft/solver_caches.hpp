@@ -7,7 +7,6 @@
 #pragma once
 
 #include <Eigen/OrderingMethods>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <cstdint>
 #include <memory>
@@ -16,6 +15,7 @@
 #include "engine/core/math.hpp"
 #include "soft/block_cg.hpp"
 #include "soft/fem_rest_factor.hpp"
+#include "soft/ldlt_solve.hpp"
 
 namespace sinew {
 
@@ -83,7 +83,6 @@ struct ImplicitEulerCache {
 /// coordinates of a row at once, without Eigen's solve (whose permutation step allocates per solve).
 struct FastMassSpringCache {
     using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
-    using Ldlt = Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>>;
 
     // What the factorization is valid for: refactored when any of these changes.
     double h = 0;
@@ -96,8 +95,7 @@ struct FastMassSpringCache {
 
     std::vector<int> row;         ///< particle -> row of the system, -1 for pinned particles
     SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle
-    Ldlt ldlt;                    ///< its factorization L D Lᵀ
-    std::vector<double> inv_d;    ///< 1 / D, per row
+    LdltArrays factor;            ///< its factorization L D Lᵀ (empty: no free particle)
     bool factored = false;
     int factorizations = 0;       ///< how many times it was (re)factored (tests check the reuse)
 
