@@ -64,6 +64,7 @@ constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no dire
 // fraction of the particle's thickness, or after this many products (each one more pair of solves).
 constexpr double kContactTolerance = 0.01;
 constexpr int kContactIterations = 20;
+constexpr std::uint32_t kSoftPlane = ~std::uint32_t(0);  // a contact row's plane: another soft body's surface
 
 // Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
 double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
@@ -218,9 +219,18 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
 // right-hand side, A x = b + N λ. As Baraff & Witkin (1998 §5.3) do for implicit Euler, a contact is an
 // equality while it is active and is released for the next step when its force pulls: a particle whose
 // plane pulled last step (`released`) is left to the contact pass this step.
-void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision& collision, Real h) {
+void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision* collision_or_null, Real h) {
     c.contacts.clear();
     if (c.released.size() != b.p.size()) c.released.assign(b.p.size(), 0);
+    // Other soft bodies' surfaces at their predictions (SoftContactPass::gather_planes): normal rows
+    // without friction; the soft contact pass after the solves resolves what is left, friction included.
+    for (const SoftBody::SoftPlane& sp : b.soft_planes) {
+        const int r = c.row[sp.particle];
+        if (r < 0 || c.released[sp.particle]) continue;
+        c.contacts.push_back({kSoftPlane, sp.particle, r, sp.normal, double(sp.offset) + double(b.def.thickness), 0.0, 0, 0, false});
+    }
+    if (!collision_or_null) return;
+    const ParticleCollision& collision = *collision_or_null;
     // How many planes each particle has (one per collider it may touch), and its first: friction's tangent
     // rows must not fight another plane's normal row (a particle wedged between two colliders: one's
     // tangent is the other's normal).
@@ -469,7 +479,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     // five times the cost, while the 1k and 5k blocks improved (accuracy 0.98 against 0.96 and 0.90):
     // not understood yet (docs/fem.md).
     c.contacts.clear();
-    if (collision && iterations > 0 && !b.fem) gather_contacts(b, c, *collision, h);
+    if ((collision || !b.soft_planes.empty()) && iterations > 0 && !b.fem) gather_contacts(b, c, collision, h);
     // A release lasts one step, whether this step gathered planes or not (airborne, the flags of the last
     // contact would otherwise wait for the next one).
     std::fill(c.released.begin(), c.released.end(), std::uint8_t(0));
@@ -518,8 +528,9 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     for (std::size_t k = 0; k < c.contacts.size(); ++k) {
         const FastMassSpringCache::ContactRow& ct = c.contacts[k];
         if (ct.tangent) continue;
-        collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         if (ct.force < 0) c.released[ct.particle] = 1;
+        if (ct.plane == kSoftPlane) continue;  // the soft contact pass reports these contacts
+        collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         // Planes the solve held (a force on the normal row or its tangent rows); a particle on two or more
         // planes has its friction from the rows too (an edge row, or the normals alone), so none of its
         // held planes gets the contact pass's.

@@ -241,6 +241,16 @@ struct SoftBody {
     /// stiffness product) may split across its workers; outside the region's run they run on one thread.
     ParallelRegion* region = nullptr;
     std::unique_ptr<FastMassSpringCache> fms_cache;
+    /// Contacts with other soft bodies held inside this step's solve as planes n · x_particle >= offset
+    /// (the particle's own thickness not yet added), from SoftContactPass::gather_planes.
+    struct SoftPlane {
+        std::uint32_t particle = 0;
+        Vec3 normal = Vec3::UnitY();
+        Real offset = 0;
+    };
+    std::vector<SoftPlane> soft_planes;
+    /// Does the method hold soft-soft contacts inside its solve (fast mass-spring without tets)?
+    bool holds_soft_planes() const { return def.method == SoftMethod::FastMassSpring && !fem; }
     /// The tets' rest data, rotations, plastic strain and warped stiffness (null without tets).
     std::unique_ptr<FemState> fem;
 

@@ -77,6 +77,13 @@ public:
     /// Resolves the contacts among `bodies` (positions: x_next of stepping bodies, velocities v) and
     /// records them (contacts()). Stepping bodies end with v_solved = v.
     void run(const std::vector<Entry>& bodies, Real h);
+    /// Before the bodies' own solves (positions: x_next the predictions), finds the same point-triangle
+    /// contacts between different bodies as run() would and gives each stepping body that holds its
+    /// contacts inside its solve (SoftBody::holds_soft_planes: fast mass-spring) one plane per contact of
+    /// its particles with another body: that body's surface at x_n, lifted by its thickness
+    /// (SoftBody::soft_planes; every entry's list is replaced). Records no contacts: run() still resolves
+    /// them after the solves.
+    void gather_planes(const std::vector<Entry>& bodies, Real h);
     const std::vector<SoftSoftContact>& contacts() const { return contacts_; }
     const std::vector<SoftEdgeContact>& edge_contacts() const { return edge_contacts_; }
 
@@ -93,6 +100,11 @@ public:
 
 private:
     struct Side;  // one body's arrays for the step, in soft_contacts.cpp
+    /// The bodies' sides and the contacts among them into work_: point-triangle ones between different
+    /// bodies, and when `all_kinds` edge-edge ones and a body's with itself too; false when there is none.
+    bool detect_all(const std::vector<Entry>& bodies, Real h, std::vector<Side>& sides, bool all_kinds);
+    /// The Gauss-Seidel sweeps over work_, then the records and the solved velocities.
+    void resolve(std::vector<Side>& sides, Real h);
     /// Contacts of the surface particles of entry ea with the triangles of entry eb within `reach`; `self`:
     /// ea == eb, and triangles within one edge of the particle are skipped (build_neighbours first).
     void detect(const Side& a, const Side& b, std::uint32_t ea, std::uint32_t eb, Real reach, bool self);

@@ -433,6 +433,20 @@ void SoftSystem::detect_collisions(Real h) {
 }
 
 void SoftSystem::solve_velocities(Real h) {
+    contact_entries_.clear();
+    bool any_holds = false;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && !(s < faulted_.size() && faulted_[s])) {
+            contact_entries_.push_back({s, &bodies_[s], bodies_[s].stepping});
+            any_holds = any_holds || (bodies_[s].stepping && bodies_[s].holds_soft_planes());
+        }
+    // Contacts with other soft bodies that a method holds inside its own solve (fast mass-spring), found
+    // before any body solves, as its contacts with rigid shapes are (issue 14).
+    if (any_holds) {
+        soft_contacts_.gather_planes(contact_entries_, h);  // x is x_n here, x_next the prediction
+    } else {
+        for (const SoftContactPass::Entry& e : contact_entries_) e.body->soft_planes.clear();
+    }
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || !bodies_[s].stepping) continue;
         SoftBody& b = bodies_[s];
@@ -450,10 +464,6 @@ void SoftSystem::solve_velocities(Real h) {
         p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
     }
     // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
-    contact_entries_.clear();
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (slots_.alive(s) && !(s < faulted_.size() && faulted_[s]))
-            contact_entries_.push_back({s, &bodies_[s], bodies_[s].stepping});
     soft_contacts_.run(contact_entries_, h);
 }
 
