@@ -500,6 +500,7 @@ void SoftContactPass::gather_planes(const std::vector<Entry>& entries, Real h) {
 }
 
 void SoftContactPass::run(const std::vector<Entry>& entries, Real h) {
+    for (const Entry& e : entries) e.body->soft_touched.clear();
     std::vector<Side> sides;
     if (!detect_all(entries, h, sides, true)) return;
     resolve(sides, h);
@@ -710,8 +711,18 @@ void SoftContactPass::resolve(std::vector<Side>& sides, Real h) {
             move(djt);
             w.friction = jt;
         }
-    // What each contact did, into its record.
+    // What each contact did, into its record; the particles it moved, into their bodies' flags.
+    const auto touch = [&](const Side& side, const std::uint32_t* idx, std::uint32_t count) {
+        if (!side.stepping || side.rigid) return;
+        std::vector<std::uint8_t>& t = side.b->soft_touched;
+        if (t.size() != side.b->p.size()) t.assign(side.b->p.size(), 0);
+        for (std::uint32_t k = 0; k < count; ++k) t[idx[k]] = 1;
+    };
     for (const Work& w : work_) {
+        if (w.impulse > 0 || w.push > 0) {
+            touch(sides[w.ea], w.ia, w.na);
+            touch(sides[w.eb], w.ib, w.nb);
+        }
         if (w.edge) {
             edge_contacts_[w.record].impulse = w.impulse;
             edge_contacts_[w.record].friction = w.friction;

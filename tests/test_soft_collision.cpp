@@ -273,6 +273,67 @@ TEST_CASE("fast mass-spring with restitution: a tablecloth's edge particles are 
     CHECK(y < Real(0.93));
 }
 
+TEST_CASE("implicit Euler holds its contacts with colliders at rest inside the solve: a tablecloth and a pressure ball come to rest",
+          "[soft][collision][implicit]") {
+    // Baraff & Witkin's constraint filter (soft/soft_system.cpp, record_contacts) for mass-spring bodies
+    // against colliders at rest. With the projection after the solve alone (measured, float, 10 s):
+    // - the tablecloth above (restitution 0, CG 100) kept particles along the table's sides in a
+    //   period-two flutter at 0.4 m/s (5e-4 J) for good; held: the fastest at 2-4 mm/s, 1e-7 J, its
+    //   centre of mass at 0.912 m (fast mass-spring's);
+    // - pressure-ball (642 vertices) rolled 0.8 m across the ground within 10 s of landing; held: it
+    //   stays where it landed, 3e-10 J.
+    // Bounds: the 5 cm/s sleep speed; 1e-5 J; the centre of mass as in the fast mass-spring test; 1 cm.
+    SECTION("tablecloth") {
+        const SceneDesc scene = parse_scene_string(R"({"format": "sinew-scene", "version": 1,
+          "settings": {"sleeping": {"enabled": false}},
+          "bodies": [{"name": "table", "type": "static", "shape": {"type": "box", "half_extents": [0.2, 0.5, 1]},
+                      "position": [0, 0.5, 0], "material": {"friction": 0.5}}],
+          "soft_bodies": [{"name": "cloth", "builder": "cloth", "nodes": [33, 33], "origin": [-0.5, 1.01, -0.5],
+                           "edge_u": [1, 0, 0], "edge_v": [0, 0, 1], "shear": true, "bend": false, "mass": 1,
+                           "method": "implicit", "solver": {"iterations": 100}, "links": {"stretch": 10000, "shear": 10000},
+                           "material": {"friction": 0.5, "thickness": 0.01}}]})",
+                                                   "tablecloth");
+        auto world = build_world(scene);
+        const SoftBody& cloth = world->soft().body(world->soft().bodies()[0]);
+        Real fastest = 0, y = 0, energy = 0;
+        for (int k = 0; k < 600; ++k) {
+            world->step();
+            y = energy = 0;
+            for (std::size_t i = 0; i < cloth.p.size(); ++i) {
+                if (k >= 300) fastest = std::max(fastest, cloth.p.v[i].norm());
+                y += cloth.p.x[i].y() / Real(cloth.p.size());
+                energy += Real(0.5) * cloth.p.mass[i] * cloth.p.v[i].squaredNorm();
+            }
+        }
+        CHECK(fastest < Real(0.05));
+        CHECK(energy < Real(1e-5));
+        CHECK(y > Real(0.89));
+        CHECK(y < Real(0.93));
+    }
+    SECTION("pressure ball") {
+        SceneDesc scene = parse_scene_file(kScenes + "pressure-ball.json");
+        for (SceneSoftBody& b : scene.soft_bodies) {
+            b.def.method = SoftMethod::ImplicitEuler;
+            b.def.iterations = 100;
+        }
+        auto world = build_world(scene);
+        const SoftBody& ball = world->soft().body(world->soft().bodies()[0]);
+        const auto centre = [&] {
+            Vec3 c = Vec3::Zero();
+            for (const Vec3& x : ball.p.x) c += x / Real(ball.p.size());
+            return c;
+        };
+        for (int k = 0; k < 120; ++k) world->step();  // landed
+        const Vec3 landed = centre();
+        Real energy = 0;
+        for (int k = 0; k < 480; ++k) world->step();
+        for (std::size_t i = 0; i < ball.p.size(); ++i) energy += Real(0.5) * ball.p.mass[i] * ball.p.v[i].squaredNorm();
+        const Vec3 drift = centre() - landed;
+        CHECK(std::hypot(drift.x(), drift.z()) < Real(0.01));
+        CHECK(energy < Real(1e-5));
+    }
+}
+
 TEST_CASE("fast mass-spring: a pressure ball keeps its volume through its landing", "[soft][collision][fast-ms][pressure]") {
     // The bench's pressure-ball (RESULTS.md, soft bodies): a 642-vertex icosphere, r = 0.5 m, 1 kg, edge
     // links of 1e4 N/m, Matyka's gas P V = P_c = 50 J, dropped from 1 m onto the ground at h = 1/60.
