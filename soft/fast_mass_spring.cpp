@@ -64,7 +64,6 @@ constexpr Real kMinLinkLength = Real(1e-9);  // as in spring_forces.cpp: no dire
 // fraction of the particle's thickness, or after this many products (each one more pair of solves).
 constexpr double kContactTolerance = 0.01;
 constexpr int kContactIterations = 20;
-constexpr std::uint32_t kSoftPlane = ~std::uint32_t(0);  // a contact row's plane: another soft body's surface
 
 // Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
 double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
@@ -222,12 +221,17 @@ void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
 void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCollision* collision_or_null, Real h) {
     c.contacts.clear();
     if (c.released.size() != b.p.size()) c.released.assign(b.p.size(), 0);
-    // Other soft bodies' surfaces at their predictions (SoftContactPass::gather_planes): normal rows
+    // Other soft bodies' surfaces where the step starts (SoftContactPass::gather_planes): normal rows
     // without friction; the soft contact pass after the solves resolves what is left, friction included.
+    // Such a particle takes no tangent rows for its collider planes either (with two of them and a soft
+    // plane's normal it would be held along four rows in three dimensions); the contact pass gives it
+    // the colliders' friction.
+    c.soft_at.assign(b.p.size(), 0);
     for (const SoftBody::SoftPlane& sp : b.soft_planes) {
         const int r = c.row[sp.particle];
         if (r < 0 || c.released[sp.particle]) continue;
-        c.contacts.push_back({kSoftPlane, sp.particle, r, sp.normal, double(sp.offset) + double(b.def.thickness), 0.0, 0, 0, false});
+        c.contacts.push_back({FastMassSpringCache::kSoftPlane, sp.particle, r, sp.normal, double(sp.offset) + double(b.def.thickness), 0.0, 0, 0, false});
+        c.soft_at[sp.particle] = 1;
     }
     if (!collision_or_null) return;
     const ParticleCollision& collision = *collision_or_null;
@@ -249,7 +253,7 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
         const Real approach = std::max(Real(0), -pl.normal.dot(b.p.v[pl.particle] - pl.velocity));
         c.contacts.push_back({std::uint32_t(k), pl.particle, r, pl.normal, double(pl.normal.dot(pl.point)) + double(b.def.thickness),
                               0.0, approach, pl.friction, false});
-        if (!(pl.friction > 0)) continue;
+        if (!(pl.friction > 0) || c.soft_at[pl.particle]) continue;
         // Friction: tangent rows holding the particle where it started the step, moved with the surface
         // (static friction), clamped to the Coulomb cone after the solve (hold_contacts). A particle on
         // two planes is held along their common edge only, by its second plane's row (the normals hold the
@@ -529,7 +533,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         const FastMassSpringCache::ContactRow& ct = c.contacts[k];
         if (ct.tangent) continue;
         if (ct.force < 0) c.released[ct.particle] = 1;
-        if (ct.plane == kSoftPlane) continue;  // the soft contact pass reports these contacts
+        if (ct.plane == FastMassSpringCache::kSoftPlane) continue;  // the soft contact pass reports these contacts
         collision->set_held(ct.plane, Real(ct.force * double(h)), ct.approach);
         // Planes the solve held (a force on the normal row or its tangent rows); a particle on two or more
         // planes has its friction from the rows too (an edge row, or the normals alone), so none of its
@@ -540,7 +544,8 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
             friction += Real(c.contacts[j].force * double(h)) * c.contacts[j].normal;
             held = held || c.contacts[j].force != 0;
         }
-        const bool rows = (k + 1 < c.contacts.size() && c.contacts[k + 1].tangent) || c.planes_at[ct.particle] > 1;
+        const bool rows = !c.soft_at[ct.particle] &&
+                          ((k + 1 < c.contacts.size() && c.contacts[k + 1].tangent) || c.planes_at[ct.particle] > 1);
         if (held && rows && ct.mu > 0) collision->set_held_friction(ct.plane, friction);
     }
 

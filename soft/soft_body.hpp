@@ -249,8 +249,9 @@ struct SoftBody {
         Real offset = 0;
     };
     std::vector<SoftPlane> soft_planes;
-    /// Per particle: did the last soft-soft pass (SoftContactPass::run) give it an impulse? Such particles
-    /// keep the contact pass's projection against colliders (SoftSystem::record_contacts).
+    /// Per particle: did the last soft-soft pass (SoftContactPass::run) give it an impulse or a push? Such
+    /// particles keep the contact pass's projection against colliders in the next step (implicit Euler's
+    /// filter drops them, SoftSystem::solve_velocities). Empty when the pass touched none of the body's.
     std::vector<std::uint8_t> soft_touched;
     /// Does the method hold soft-soft contacts inside its solve (fast mass-spring without tets)?
     bool holds_soft_planes() const { return def.method == SoftMethod::FastMassSpring && !fem; }

@@ -490,8 +490,7 @@ void SoftContactPass::gather_planes(const std::vector<Entry>& entries, Real h) {
             const Side& a = sides[w.ea];
             const Side& b = sides[w.eb];
             if (w.edge || !a.stepping || !a.b->holds_soft_planes()) continue;
-            Vec3 on = Vec3::Zero();
-            for (std::uint32_t k = 0; k < w.nb; ++k) on += w.wb[k] * b.b->p.x[w.ib[k]];
+            const Vec3 on = at(Vec3(w.wb[0], w.wb[1], w.wb[2]), b.b->p.x, w.ib);
             a.b->soft_planes.push_back({w.ia[0], w.normal, w.normal.dot(on) + b.b->def.thickness});
         }
     contacts_.clear();
@@ -515,7 +514,7 @@ bool SoftContactPass::detect_all(const std::vector<Entry>& entries, Real h, std:
     bool any = false;
     for (std::size_t i = 0; i < n && !any; ++i) {
         const Entry& e = entries[i];
-        any = e.stepping && e.body->def.self_collision && !e.body->triangles.empty();
+        any = all_kinds && e.stepping && e.body->def.self_collision && !e.body->triangles.empty();
         for (std::size_t j = i + 1; j < n && !any; ++j)
             any = (e.stepping || entries[j].stepping) && may_touch(*e.body, e.slot, *entries[j].body, entries[j].slot);
     }

@@ -465,6 +465,16 @@ void SoftSystem::solve_velocities(Real h) {
     }
     // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
     soft_contacts_.run(contact_entries_, h);
+    // A particle the pass moved is not held by implicit Euler's filter in the next solve (record_contacts):
+    // the pass pushes it after the solve, into a plane the filter holds only in velocity.
+    for (const SoftContactPass::Entry& e : contact_entries_) {
+        SoftBody& b = *e.body;
+        if (!e.stepping || b.def.method != SoftMethod::ImplicitEuler || b.fem || b.hold_contacts ||
+            b.soft_touched.size() != b.p.size() || b.contact_normal.size() != b.p.size())
+            continue;
+        for (std::size_t i = 0; i < b.p.size(); ++i)
+            if (b.soft_touched[i]) b.contact_normal[i].setZero();
+    }
 }
 
 const ParticleCollision* SoftSystem::collision(std::uint32_t slot) const {
@@ -490,19 +500,19 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     // particle's normal velocity in the next step's solve, instead of leaving it to the projection after
     // the solve, whose position pushes the links learn of a step late. FEM bodies and bodies a two-way
     // coupling layer asks for (hold_contacts: its shares read them too) hold every contact. Other bodies
-    // hold their contacts with colliders at rest (static ones, or a body not moving):
+    // hold their contacts with colliders at rest (static ones, or a kinematic body not moving):
     // - measured (float, h = 1/60): a 33 x 33 tablecloth over a table kept particles along the table's
-    //   side in a period-two flutter at 0.4 m/s for good (held: 3 mm/s, 2e-8 J); an implicit pressure
-    //   ball rolled 0.8 m across the ground in 10 s (held: at rest, 1e-9 J); cloth-drop's largest
+    //   side in a period-two flutter at 0.4 m/s for good (held: 2-4 mm/s, 1e-7 J); an implicit pressure
+    //   ball rolled 0.8 m across the ground in 10 s (held: at rest, 3e-10 J); cloth-drop's largest
     //   stretch fell from 1.236 to 1.036 and the pressure ball's volume from 0.978 to 1.004
     //   (`sinew bench cloth`, k = 1e4, CG 100);
     // - against a moving collider they keep the projection: held, the cloth of `cloth-on-arm` (draped
     //   over a kinematic arm turning at 1.2 rad/s) kept only 10 particles in contact and was thrown off
     //   the arm within 3 s at 1/60 while it stays on at 1/480 (not understood yet); a dynamic collider's
     //   reaction is a coupling layer's, taken from the contact pass;
-    // - so does a particle the last soft-soft pass moved: the pass pushes it after the solve, into a
-    //   plane the filter holds only in velocity (a folded cloth's lower layer sank 6 mm into the ground
-    //   under the upper one and kept moving at 0.2 m/s).
+    // - so does a particle this step's soft-soft pass moved (solve_velocities drops it after the pass):
+    //   the pass pushes it after the solve, into a plane the filter holds only in velocity (a folded
+    //   cloth's lower layer sank 6 mm into the ground under the upper one and kept moving at 0.2 m/s).
     if (b.def.method != SoftMethod::ImplicitEuler) {
         b.contact_normal.clear();
         return;
@@ -515,9 +525,7 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     for (std::size_t k = first; k < contacts_.size(); ++k) {
         const ParticleContact& c = contacts_[k];
         const Collider& col = colliders_[c.collider];
-        if (!every_collider && (col.dynamic || !(col.v.isZero() && col.w.isZero()) ||
-                                (c.particle < b.soft_touched.size() && b.soft_touched[c.particle])))
-            continue;
+        if (!every_collider && (col.dynamic || !(col.v.isZero() && col.w.isZero()))) continue;
         b.contact_normal[c.particle] = c.normal;
         b.contact_speed[c.particle] = c.normal.dot(col.point_velocity(c.point));
         b.contact_owner[c.particle] = col.owner;
@@ -575,6 +583,8 @@ void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
     for (std::vector<Vec3>* a : {&b.contact_normal, &b.contact_share_impulse, &b.attachment_impulse})
         for (Vec3& x : *a) x.setZero();
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
+    b.soft_planes.clear();
+    b.soft_touched.clear();
     if (b.fem)
         for (Quat& q : b.fem->polar)
             if (!q.coeffs().allFinite()) q = Quat::Identity();

@@ -110,7 +110,7 @@ struct FastMassSpringCache {
     /// t1, t2 across the normal) that hold the particle where it started the step, moved with the
     /// surface, within the Coulomb cone of the normal force.
     struct ContactRow {
-        std::uint32_t plane;   ///< index into the step's ParticleCollision planes
+        std::uint32_t plane;   ///< index into the step's ParticleCollision planes, or kSoftPlane
         std::uint32_t particle;
         int row;               ///< the particle's row of the system
         Vec3 normal;           ///< the row's direction: the plane's normal, or a tangent of it
@@ -121,11 +121,14 @@ struct FastMassSpringCache {
         Real mu = 0;           ///< normal: the friction coefficient (tangent rows follow when > 0)
         bool tangent = false;
     };
+    /// A row's plane: another soft body's surface (SoftBody::soft_planes), reported by the soft contact pass.
+    static constexpr std::uint32_t kSoftPlane = ~std::uint32_t(0);
     std::vector<ContactRow> contacts;
     std::vector<double> cg_r, cg_p, cg_q;  ///< per contact row: residual (m), direction, S p
     std::vector<std::uint8_t> cg_active;   ///< per contact row: in this solve's set
     std::vector<double> cg_u;              ///< 3 per row: A⁻¹ N p
     std::vector<std::uint8_t> planes_at;   ///< scratch: per particle, its planes this step (up to 3 counted)
+    std::vector<std::uint8_t> soft_at;     ///< scratch: per particle, 1 if it has a row against another soft body
     std::vector<std::uint32_t> first_plane;  ///< scratch: per particle, its first plane
     std::vector<std::uint8_t> released;    ///< per particle: one of its planes pulled in the last step; all its
                                            ///< planes are left to the contact pass in this one
