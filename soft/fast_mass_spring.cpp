@@ -241,7 +241,7 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
     c.planes_at.assign(b.p.size(), 0);
     c.first_plane.resize(b.p.size());
     for (std::size_t k = 0; k < collision.plane_count(); ++k) {
-        const std::uint32_t i = collision.plane(k).particle;
+        const std::uint32_t i = collision.plane_particle(k);
         if (c.planes_at[i] == 0) c.first_plane[i] = std::uint32_t(k);
         if (c.planes_at[i] < 3) ++c.planes_at[i];
     }
@@ -275,12 +275,20 @@ void gather_contacts(const SoftBody& b, FastMassSpringCache& c, const ParticleCo
     }
 }
 
+// A contact row's direction d against a vector of 3 values per system row: d · v_row, and v_row += s d.
+double row_dot(const FastMassSpringCache::ContactRow& ct, const std::vector<double>& v) {
+    const double* x = &v[3 * std::size_t(ct.row)];
+    return double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2];
+}
+void row_add(const FastMassSpringCache::ContactRow& ct, double s, std::vector<double>& v) {
+    for (int a = 0; a < 3; ++a) v[3 * std::size_t(ct.row) + a] += s * double(ct.normal[a]);
+}
+
 // The contact forces so far, N λ (signed), on the right-hand side: each local/global iteration's global
 // step starts from them.
 void add_contact_forces(FastMassSpringCache& c) {
     for (const FastMassSpringCache::ContactRow& k : c.contacts)
-        if (k.force != 0)
-            for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(k.row) + a] += k.force * double(k.normal[a]);
+        if (k.force != 0) row_add(k, k.force, c.rhs);
 }
 
 // One conjugate-gradient solve over the active rows (with or without the tangent rows; rows left out keep
@@ -291,9 +299,7 @@ int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, boo
     // Residual r = offset - d · X over the rows in the solve (0 elsewhere: they stay out of it).
     double rr = 0, worst = 0;
     for (std::size_t k = 0; k < m; ++k) {
-        const FastMassSpringCache::ContactRow& ct = c.contacts[k];
-        const double* x = &c.rhs[3 * std::size_t(ct.row)];
-        const double gap = double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2] - ct.offset;
+        const double gap = row_dot(c.contacts[k], c.rhs) - c.contacts[k].offset;
         c.cg_r[k] = in_solve(k) ? -gap : 0.0;
         c.cg_p[k] = c.cg_r[k];
         rr += c.cg_r[k] * c.cg_r[k];
@@ -304,14 +310,11 @@ int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, boo
         // u = A⁻¹ N p, q = Nᵀ u.
         std::fill(c.cg_u.begin(), c.cg_u.end(), 0.0);
         for (std::size_t k = 0; k < m; ++k)
-            if (c.cg_p[k] != 0)
-                for (int a = 0; a < 3; ++a) c.cg_u[3 * std::size_t(c.contacts[k].row) + a] += c.cg_p[k] * double(c.contacts[k].normal[a]);
+            if (c.cg_p[k] != 0) row_add(c.contacts[k], c.cg_p[k], c.cg_u);
         solve_in_place(c, c.cg_u);
         double pq = 0;
         for (std::size_t k = 0; k < m; ++k) {
-            const FastMassSpringCache::ContactRow& ct = c.contacts[k];
-            const double* u = &c.cg_u[3 * std::size_t(ct.row)];
-            c.cg_q[k] = c.cg_p[k] == 0 ? 0.0 : double(ct.normal[0]) * u[0] + double(ct.normal[1]) * u[1] + double(ct.normal[2]) * u[2];
+            c.cg_q[k] = c.cg_p[k] == 0 ? 0.0 : row_dot(c.contacts[k], c.cg_u);
             pq += c.cg_p[k] * c.cg_q[k];
         }
         if (!(pq > 0)) break;
@@ -370,9 +373,7 @@ int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) 
             any_tangent = any_tangent || normal_active;
             continue;
         }
-        const double* x = &c.rhs[3 * std::size_t(ct.row)];
-        const double gap = double(ct.normal[0]) * x[0] + double(ct.normal[1]) * x[1] + double(ct.normal[2]) * x[2] - ct.offset;
-        normal_active = gap < 0 || ct.force != 0;
+        normal_active = row_dot(ct, c.rhs) - ct.offset < 0 || ct.force != 0;
         c.cg_active[k] = normal_active;
     }
     int it = contact_cg(c, tolerance, max_iterations, true);
@@ -394,7 +395,7 @@ int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) 
             FastMassSpringCache::ContactRow& t = c.contacts[j];
             const double d = t.force * (scale - 1);
             t.force += d;
-            for (int a = 0; a < 3; ++a) c.cg_u[3 * std::size_t(t.row) + a] += d * double(t.normal[a]);
+            row_add(t, d, c.cg_u);
         }
         clamped = true;
     }

@@ -53,6 +53,8 @@ public:
     std::size_t plane_count() const { return planes_.size(); }
     /// Plane k (k < plane_count()), grouped by collider, then by particle.
     PlaneView plane(std::size_t k) const;
+    /// Plane k's particle alone (plane(k) also places the plane at its collider's pose).
+    std::uint32_t plane_particle(std::size_t k) const { return planes_[k].particle; }
     /// A method that holds its particles on their planes inside its own solve (fast mass-spring) records
     /// the normal impulse plane k applied there (N s; negative when the plane pulled, which finish()
     /// reports as it is and leaves out of the friction budget and restitution) and the particle's approach

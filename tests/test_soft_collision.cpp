@@ -1,7 +1,10 @@
-// Soft bodies against rigid shapes (soft/particle_collision.hpp, soft/soft_system.hpp, the one-way layer
-// coupling/one_way_coupling.hpp): the point-shape distance query against closed forms, no particle left
-// inside a shape, Coulomb friction and restitution against their analytic outcomes, kinematic bodies
-// pushing and carrying particles, sleeping and waking, and validation of bad definitions.
+// Soft bodies under contact: against rigid shapes (soft/particle_collision.hpp, soft/soft_system.hpp, the
+// one-way layer coupling/one_way_coupling.hpp: the point-shape distance query against closed forms, no
+// particle left inside a shape, Coulomb friction and restitution against their analytic outcomes, the
+// contacts fast mass-spring and implicit Euler hold inside their solves, continuous collision, kinematic
+// bodies pushing and carrying particles, sleeping and waking, validation of bad definitions) and against
+// each other (soft/soft_contacts.hpp: momentum, resting stacks, edge-edge, self-collision, fast
+// mass-spring's soft-soft rows).
 #include <catch2/catch.hpp>
 
 #include <cmath>
