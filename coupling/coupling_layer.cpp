@@ -30,6 +30,8 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
                                       apply_late_impulses();
                                   },
                                   "interleaved and sub-stepped hybrid: last step's reactions -> rigid");
+    hooks_[7] = pipeline.add_hook(soft_index, Stage::IntegratePositions, HookWhen::Before,
+                                  [this](const StepContext&) { keep_tied_bodies_awake(); }, "two-way: tied bodies sleep together");
     hooks_[6] = pipeline.add_hook(soft_index, Stage::DetectCollisions, HookWhen::After,
                                   [this](const StepContext&) {
                                       snapshot_colliders();
@@ -165,40 +167,42 @@ void CouplingLayer::begin_step(Real h) {
         if (b.solved_by_rows) b.contact_share_impulse.clear();
         b.hold_contacts = two_way;
         if (two_way && b.awake) assign_shares(b, id, s, h);
-        else b.contact_share.clear();
+        else b.coupled_rigids.clear();
         ask_attachment_reactions(b, id);
     }
     sent_back_.clear();
 }
 
 void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
-    // Each particle the last contact pass (or the rows) found on a dynamic rigid body carries a share of
-    // that body's inertia through this step's implicit solve (soft/implicit_euler.cpp, CoupledRow),
-    // starting at the body's velocity there (gravity over the step included if the solver adds it
-    // later); the body then takes what the shares gave the particles (send_back_share_impulses). The
-    // share, split evenly over the particles touching the body: along the normal its mass M (together
-    // the shares move as the body translates, so a resting body's weight reaches the soft body in full:
-    // the box on the FEM block sinks 2.44 mm at h and at h/4); across it, when friction acts, the
-    // tangential part of the body's effective mass at the particle, K^-1 with K = 1/M - [r]x I^-1 [r]x
-    // (rotation included: a ball spins under it). The whole K^-1 along the normal too made the sink
-    // depend on h (3.75 mm at h, 2.60 mm at h/4): four corner shares of a box sum to less than its mass.
-    // With no friction, or where last step's share pushed outside the friction cone, the normal part only.
-    // Tried first and rejected:
+    // Each particle the last contact pass (or the rows) found on a dynamic rigid body is tied to that body
+    // in this step's implicit solve (soft/implicit_euler.cpp, "Rigid bodies in the solve"): the body's
+    // velocity and angular velocity join the solve's unknowns (starting where the body is now, gravity
+    // over the step included if the solver adds it later), and the particle moves with the body's point
+    // along the normal, or in all three directions where friction holds it; the body then takes what it
+    // gave the particles (send_back_share_impulses). Coulomb a step late: a particle whose impulse left the
+    // cone is tied along the normal only in the next step.
+    // Tried before and replaced:
+    //  - the body's mass split evenly over the particles touching it as independent shares, each moving
+    //    with its particle: their impulses did not agree with one body velocity, and a ball resting in a
+    //    cloth rocked at 1-3 cm/s and never slept, the set of particles carrying it alternating sides every
+    //    step; four corner shares of a box sum to less than its mass where the whole point inertia was used;
     //  - a prescribed speed with the reaction sent explicitly (Baraff-Witkin's filter): it made energy
     //    (a 1 kg ball bounced 12% above its drop height off a 0.5 kg cloth) and diverged once the cloth's
     //    damping passed about 2 M / (h N) (20 N s/m here);
-    //  - normal shares with friction left to the rows and the contact pass: the ball resting in the
-    //    cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its small
-    //    rotational inertia a step late.
-    b.contact_share.clear();
+    //  - ties along the normal only with friction left to the rows and the contact pass: the ball resting
+    //    in the cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its
+    //    small rotational inertia a step late.
+    b.coupled_rigids.clear();
     const bool contacts_known = b.contact_owner.size() == b.p.size() && b.contact_normal.size() == b.p.size();
     if (!contacts_known && b.attachments.empty()) return;
     const RigidSystem::State& st = rigid_.state();
     const bool gravity_pending = rigid_.gravity_in_solve();
-    share_count_.resize(rigid_.slot_count());
     if (slip_.size() <= slot) slip_.resize(slot + 1);
-    std::vector<std::uint8_t>& slip = slip_[slot];
-    if (slip.size() != b.p.size()) slip.assign(b.p.size(), 0);
+    std::vector<Vec3>& slip = slip_[slot];
+    if (slip.size() != b.p.size()) slip.assign(b.p.size(), Vec3::Zero());
+    if (tied_before_.size() <= slot) tied_before_.resize(slot + 1);
+    std::vector<std::uint8_t>& tied_before = tied_before_[slot];
+    if (tied_before.size() != b.p.size()) tied_before.assign(b.p.size(), 0);
     const auto eligible = [&](std::uint32_t i) {
         if (!contacts_known) return false;
         const std::uint32_t o = b.contact_owner[i];
@@ -207,11 +211,31 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
         if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) return false;
         return shares_with(b, coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)));
     };
-    // Attachments to a dynamic body under two-way coupling: the attached particle carries the body's whole
-    // effective mass at the point, K^-1 (split with the body's other shares), in all three directions,
-    // and joins the solve (soft/implicit_euler.cpp): the rope's springs then pull the body implicitly,
-    // which a heavy body on a light rope (1:1000) needs. Only implicit Euler solves with shares; a
-    // sleeping body is woken first, since a soft body that moves pulls on it.
+    // Per rigid slot, its index in b.coupled_rigids (kNoRigid: none yet); the slots used are reset at the end.
+    if (rigid_index_.size() < rigid_.slot_count()) rigid_index_.resize(rigid_.slot_count(), SoftBody::kNoRigid);
+    const auto body_index = [&](std::uint32_t o) {
+        if (rigid_index_[o] != SoftBody::kNoRigid) return rigid_index_[o];
+        const BodyId rid = rigid_.id_of_slot(o);
+        SoftBody::CoupledRigid c;
+        c.owner = o;
+        c.com = st.x[o];
+        c.v = st.v[o];
+        if (gravity_pending) c.v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
+        c.w = st.w[o];
+        c.mass = rigid_.mass(rid);
+        const Mat3& inv_i = st.inv_inertia_world[o];
+        const Real scale = inv_i.trace();
+        c.rotates = scale > 0 && inv_i.determinant() > Real(1e-9) * scale * scale * scale;
+        if (c.rotates) c.inertia = inv_i.inverse();
+        rigid_index_[o] = std::uint32_t(b.coupled_rigids.size());
+        coupled_slots_.push_back(o);
+        b.coupled_rigids.push_back(c);
+        return rigid_index_[o];
+    };
+    // Attachments to a dynamic body under two-way coupling: the attached particle moves with the body's
+    // point in all three directions and joins the solve (soft/implicit_euler.cpp): the rope's springs
+    // then pull the body implicitly, which a heavy body on a light rope (1:1000) needs. Only implicit
+    // Euler solves with bodies; a sleeping body is woken first, since a soft body that moves pulls on it.
     const std::size_t first_attachment = attach_shares_.size();
     if (b.def.method == SoftMethod::ImplicitEuler)
         for (const Attachment& a : b.attachments) {
@@ -223,57 +247,44 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
             const Vec3 arm = rigid_.slot_transform(rid.index).apply(a.local_point) - st.x[rid.index];
             attach_shares_.push_back({slot, a.particle, rid.index, arm});
         }
-    bool any_share = attach_shares_.size() > first_attachment;
-    for (std::uint32_t i = 0; i < b.p.size(); ++i)
-        if (eligible(i)) share_count_[b.contact_owner[i]] = 0;
-    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) share_count_[attach_shares_[k].rigid] = 0;
-    for (std::uint32_t i = 0; i < b.p.size(); ++i)
-        if (eligible(i)) {
-            ++share_count_[b.contact_owner[i]];
-            any_share = true;
-        }
-    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) ++share_count_[attach_shares_[k].rigid];
-    if (!any_share) return;
-    b.contact_share.assign(b.p.size(), Mat3::Zero());
-    if (b.contact_surface_v.size() != b.p.size()) b.contact_surface_v.assign(b.p.size(), Vec3::Zero());
-    const auto point_inertia_inverse = [&](std::uint32_t o, const Vec3& r) {
-        const Mat3 rx = skew(r);
-        const Mat3 k = st.inv_mass[o] * Mat3::Identity() - rx * st.inv_inertia_world[o] * rx;
-        const Mat3 k_inv = k.inverse();
-        return k_inv;
-    };
+    bool any_tie = attach_shares_.size() > first_attachment;
+    for (std::uint32_t i = 0; i < b.p.size() && !any_tie; ++i) any_tie = eligible(i);
+    if (!any_tie) return;
+    b.contact_rigid.assign(b.p.size(), SoftBody::kNoRigid);
+    b.contact_stick.assign(b.p.size(), 0);
+    b.contact_gap.assign(b.p.size(), Real(0));
+    b.contact_arm.assign(b.p.size(), Vec3::Zero());
+    b.contact_friction.assign(b.p.size(), Vec3::Zero());
     for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) {
         const AttachShare& a = attach_shares_[k];
-        const BodyId rid = rigid_.id_of_slot(a.rigid);
-        Vec3 v = st.v[a.rigid] + st.w[a.rigid].cross(a.arm);
-        if (gravity_pending) v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
-        b.contact_surface_v[a.particle] = v;
-        b.contact_share[a.particle] = (1 / Real(share_count_[a.rigid])) * point_inertia_inverse(a.rigid, a.arm);
+        b.contact_rigid[a.particle] = body_index(a.rigid);
+        b.contact_stick[a.particle] = 1;
+        b.contact_arm[a.particle] = a.arm;
     }
     for (std::uint32_t i = 0; i < b.p.size(); ++i) {
         if (!eligible(i)) continue;
         const std::uint32_t o = b.contact_owner[i];
-        const BodyId rid = rigid_.id_of_slot(o);
         const Vec3 r = b.p.x[i] - st.x[o];
-        Vec3 v = st.v[o] + st.w[o].cross(r);
-        if (gravity_pending) v += h * rigid_.gravity_scale(rid) * rigid_.settings().gravity;
-        // The share pushes along the line through the particle: on a round body, through its axis.
+        const SoftBody::CoupledRigid& body = b.coupled_rigids[body_index(o)];
+        // Tied along the line through the particle: on a round body, through its axis.
         Vec3 round_normal, surface;
         if (round_body_normal(rigid_.slot_shape(o), rigid_.slot_transform(o), b.p.x[i], b.contact_normal[i],
                               3 * b.def.thickness, round_normal, surface))
             b.contact_normal[i] = round_normal;
-        const Vec3& n = b.contact_normal[i];
-        b.contact_speed[i] = n.dot(v);
-        b.contact_surface_v[i] = v;
-        const Real split = 1 / Real(share_count_[o]);
-        const Mat3 nn = n * n.transpose();
-        b.contact_share[i] = (split * rigid_.mass(rid)) * nn;
+        Vec3 closest, normal;
+        Real distance = 0;
+        if (point_shape_distance(b.p.x[i], rigid_.slot_shape(o), rigid_.slot_transform(o), 3 * b.def.thickness, closest,
+                                 normal, distance))
+            b.contact_gap[i] = distance - b.def.thickness;
+        b.contact_speed[i] = b.contact_normal[i].dot(body.v + body.w.cross(r));
+        b.contact_rigid[i] = rigid_index_[o];
+        b.contact_arm[i] = r;
         const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
-        if (mu > 0 && !slip[i]) {
-            const Mat3 t = Mat3::Identity() - nn;
-            b.contact_share[i] += split * (t * point_inertia_inverse(o, r) * t);
-        }
+        b.contact_stick[i] = mu > 0 && slip[i].isZero() && tied_before[i] ? 1 : 0;
+        b.contact_friction[i] = mu > 0 ? slip[i] : Vec3::Zero();
     }
+    for (const std::uint32_t o : coupled_slots_) rigid_index_[o] = SoftBody::kNoRigid;
+    coupled_slots_.clear();
 }
 
 bool CouplingLayer::dynamic_target(const Attachment& a, BodyId& out) const {
@@ -337,17 +348,41 @@ void CouplingLayer::send_back_share_impulses() {
         if (!soft_.slot_alive(s)) continue;
         const SoftBody& b = soft_.slot_body(s);
         const std::size_t n = b.p.size();
-        if (!b.stepping || b.contact_share.size() != n || b.contact_share_impulse.size() != n) continue;
-        std::vector<std::uint8_t>& slip = slip_[s];
+        if (!b.stepping || b.coupled_rigids.empty() || b.contact_rigid.size() != n || b.contact_share_impulse.size() != n)
+            continue;
+        std::vector<Vec3>& slip = slip_[s];
         for (std::uint32_t i = 0; i < n; ++i) {
-            if (b.contact_share[i].isZero() || b.p.inv_mass[i] == 0) continue;  // attachments below
-            const Vec3& jp = b.contact_share_impulse[i];  // what the share gave the particle
+            if (b.p.inv_mass[i] == 0) continue;  // attachments below
+            tied_before_[s][i] = b.contact_rigid[i] != SoftBody::kNoRigid;
+            if (b.contact_rigid[i] == SoftBody::kNoRigid) {
+                slip[i].setZero();
+                continue;
+            }
+            const Vec3& jp = b.contact_share_impulse[i];  // what the body gave the particle
             const std::uint32_t o = b.contact_owner[i];
             const Vec3& nrm = b.contact_normal[i];
-            // Coulomb, a step late: a share that pushed outside the cone acts along the normal next step.
+            // Coulomb, a step late. A particle held in all three directions whose tangential impulse left
+            // the cone slides in the next step, tied along the normal, under kinetic friction mu jn along
+            // that impulse. A sliding one keeps sliding, friction against its motion relative to the
+            // body's point, until friction has stopped it (its end velocity there no longer runs against
+            // the friction), and is held again. Without the kinetic friction (a sliding particle free
+            // across the normal) the particles under a ball resting in a cloth held and slid in turns,
+            // every other step, and the ball rolled in place at 0.24 rad/s.
             const Real jn = jp.dot(nrm);
+            const Vec3 jt = jp - jn * nrm;
             const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
-            slip[i] = (jp - jn * nrm).norm() > mu * std::max(jn, Real(0)) ? 1 : 0;
+            const Real bound = mu * std::max(jn, Real(0));
+            if (b.contact_stick[i]) {
+                const Real t = jt.norm();
+                slip[i] = t > bound ? Vec3((bound / t) * jt) : Vec3::Zero();
+            } else if (!slip[i].isZero()) {
+                const SoftBody::CoupledRigid& body = b.coupled_rigids[b.contact_rigid[i]];
+                const Vec3& arm = b.contact_arm[i];
+                Vec3 u = b.p.v[i] - (body.v + body.dv + (body.w + body.dw).cross(arm));
+                u -= u.dot(nrm) * nrm;
+                const Real speed = u.norm();
+                slip[i] = u.dot(slip[i]) < 0 && speed > 0 ? Vec3((-bound / speed) * u) : Vec3::Zero();
+            }
             if (jp.isZero()) continue;
             // Along the line through the particle; given inside the rigid solve, a share per sub-step
             // (ParticleRows::queue_push).
@@ -463,6 +498,20 @@ void CouplingLayer::apply_late_impulses() {
         rigid_.apply_impulse(id, f.force, rigid_.slot_transform(f.rigid).apply(f.local_point));
     }
     late_impulses_.clear();
+}
+
+void CouplingLayer::keep_tied_bodies_awake() {
+    // After the rigid bodies' sleep update, before the soft bodies': a soft body whose solve carried an
+    // awake rigid body this step must not fall asleep under it. Measured on ball-on-trampoline: the cloth,
+    // its particles slower than the sleep speed, slept while the ball on it was still settling at 1-2
+    // cm/s; the ball then fell through one step untied (0.34 m/s) and woke the cloth again.
+    for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
+        if (!soft_.slot_alive(s)) continue;
+        SoftBody& b = soft_.slot_body(s);
+        if (!b.stepping) continue;
+        for (const SoftBody::CoupledRigid& c : b.coupled_rigids)
+            if (rigid_.slot_alive(c.owner) && rigid_.awake(rigid_.id_of_slot(c.owner))) b.kept_awake = true;
+    }
 }
 
 void CouplingLayer::after_step() {

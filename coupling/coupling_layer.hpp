@@ -88,10 +88,13 @@ private:
     /// Before each step (RigidEmbedding::set_before_step): picks again if bodies came or went.
     void resolve_if_changed();
     void begin_step(Real h);
-    /// Two-way: the impulses the rigid bodies' shares gave particles in implicit Euler's solve
+    /// Before soft IntegratePositions: soft bodies that carried an awake rigid body stay awake.
+    void keep_tied_bodies_awake();
+    /// Two-way: the impulses the rigid bodies tied to implicit Euler's solve gave its particles
     /// (SoftBody::contact_share_impulse), sent back inside the rigid solve.
     void send_back_share_impulses();
-    /// Two-way: the shares of rigid bodies implicit body `b` carries through this step's solve.
+    /// Two-way: the rigid bodies tied to implicit body `b`'s particles in this step's solve
+    /// (SoftBody::coupled_rigids, contact_rigid).
     void assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
     /// The attachment's target, if it still exists and is a dynamic body (its frame written this step).
     bool dynamic_target(const Attachment& a, BodyId& out) const;
@@ -145,15 +148,18 @@ private:
     FemEmbedding fem_embedding_;
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
-    std::vector<std::uint32_t> share_count_;   ///< scratch: per rigid slot, particles sharing its mass
+    std::vector<std::uint32_t> rigid_index_;   ///< scratch of assign_shares: per rigid slot, its index in the body's coupled_rigids
+    std::vector<std::uint32_t> coupled_slots_; ///< scratch of assign_shares: the slots given an index
     struct AttachShare {
         std::uint32_t soft, particle, rigid;
         Vec3 arm;  ///< attachment point - centre of mass, at the start of the step
     };
     std::vector<AttachShare> attach_shares_;   ///< this step's two-way attachments carrying shares
-    /// Per soft slot, per particle: last step's share pushed outside the friction cone (normal share next).
-    std::vector<std::vector<std::uint8_t>> slip_;
-    int hooks_[7] = {0, 0, 0, 0, 0, 0, 0};
+    /// Per soft slot, per particle: the kinetic friction impulse of a sliding tie (zero: held, or not tied).
+    std::vector<std::vector<Vec3>> slip_;
+    /// Per soft slot, per particle: tied in the last step (a new tie starts along the normal only).
+    std::vector<std::vector<std::uint8_t>> tied_before_;
+    int hooks_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
 
     struct PendingForce {
         std::uint32_t rigid, generation;

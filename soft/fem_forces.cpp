@@ -71,7 +71,7 @@ void add_fem_product(const SoftBody& b, const ImplicitEulerCache&, const std::ve
     const FemState& s = *b.fem;
     s.stiffness.add_product(u, s.k_scale, q, b.region);
     if (s.m_scale != 0)
-        for (std::size_t i = 0; i < u.size(); ++i) q[i] += (s.m_scale * b.p.mass[i]) * u[i];
+        for (std::size_t i = 0; i < b.p.size(); ++i) q[i] += (s.m_scale * b.p.mass[i]) * u[i];  // particles' rows only
 }
 
 }  // namespace

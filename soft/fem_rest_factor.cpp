@@ -120,9 +120,10 @@ bool FemRestFactor::prepare(const FemState& s, const std::vector<Real>& mass, Re
 }
 
 void FemRestFactor::apply(const std::vector<Vec3>& r, std::vector<Vec3>& z) {
-    // z = R_N Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P R_Nᵀ r, on the factor's arrays (no allocation).
+    // z = R_N Pᵀ L⁻ᵀ D⁻¹ L⁻¹ P R_Nᵀ r, on the factor's arrays (no allocation). The particles' rows only:
+    // r and z may go on (implicit Euler's coupled rigid bodies).
     Impl& f = *impl_;
-    const std::size_t n = r.size();
+    const std::size_t n = f.node_rotation.size();
     double* w = f.work.data();
     for (std::size_t i = 0; i < n; ++i) {
         const Vec3 local = f.node_rotation[i].conjugate() * r[i];

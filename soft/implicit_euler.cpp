@@ -50,24 +50,31 @@
 
 #include "soft/fem_elements.hpp"
 #include "soft/force_models.hpp"
+#include "soft/particle_collision.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
 namespace sinew {
 
-void ImplicitEulerCache::resize(std::size_t n, std::size_t m) {
+void ImplicitEulerCache::resize(std::size_t n, std::size_t m, std::size_t rigid_rows) {
     if (force.size() != n) {
         contact_rows.clear();
         contact_rows.reserve(n);
         contact_released.assign(n, 0);
         force.assign(n, Vec3::Zero());
-        rhs.assign(n, Vec3::Zero());
-        dv.assign(n, Vec3::Zero());
+        expanded.assign(n, Vec3::Zero());
+        expanded_product.assign(n, Vec3::Zero());
+        rhs.clear();
+        dv.clear();
         mass.assign(n, Real(0));
         pinned.clear();
         pinned.reserve(n);
     }
-    cg.resize(n);
+    if (rhs.size() != n + rigid_rows) {  // the coupled bodies' rows come and go: the particles' stay
+        rhs.resize(n + rigid_rows, Vec3::Zero());
+        dv.resize(n + rigid_rows, Vec3::Zero());
+    }
+    cg.resize(n + rigid_rows);
     if (links.size() != m) links.assign(m, LinkBlock{});
 }
 
@@ -75,36 +82,86 @@ namespace {
 
 // The CG product q = A u with A = M (1 + hλ drag) plus each force model's part, and the rows of pinned
 // particles zeroed (the filter).
+// Reads and writes the particles' rows only (u and q may be longer: the coupled bodies' rows follow).
 void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q,
                     bool filter_pinned = true) {
-    const std::size_t n = u.size();
+    const std::size_t n = c.mass.size();
     for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
     for (const ForceModel* model : force_models())
         if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
-    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) q[r.particle] += r.share * u[r.particle];
     if (filter_pinned)
         for (const std::uint32_t i : c.pinned) q[i].setZero();
+}
+
+// Rigid bodies in the solve (two-way coupling, coupling/coupling_layer.cpp, assign_shares). A particle
+// tied to a dynamic rigid body moves with the body's point in the tied directions C (n nᵀ, or I where
+// friction holds): v_i = P u_i + C (V + ω × r_i), P = I - C. The unknowns are the particles' free parts
+// u and each body's (ΔV, Δω), and with J that map, the step minimises the particles' implicit Euler
+// energy plus the bodies' kinetic energy: (Jᵀ A J + diag(M, I)) Δq = Jᵀ (rhs - A z), z the start
+// mismatch C (V* + ω* × r - v) (the body's velocity at the start, the step's gravity included). Still
+// symmetric positive definite, so CG solves it as before: the body's inertia meets the springs inside
+// the solve, and every tied particle ends at the body's velocity there. The impulse the body gave
+// particle i is its row of the unconstrained system, λ_i = C (A Δv - rhs)_i; the layer takes Σ λ from
+// the body (it is M ΔV, I Δω once CG has converged). This replaced independent shares (the body's mass
+// split evenly over the particles, each moving on its own): their impulses did not agree with one body
+// velocity, and a ball resting in a cloth rocked at 1-3 cm/s for good, the set of particles carrying it
+// alternating between two sides of it every step (docs/coupling.md).
+
+// q = (Jᵀ A J + diag(M, I)) u on the reduced rows, the contact constraints' S applied (the particles' own
+// filter, Baraff & Witkin 1998 §5.3).
+// The bodies' rows follow the particles' (u.size() - n of them, two per body).
+void reduced_product(const SoftBody& b, ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
+    const std::size_t n = c.mass.size();
+    const std::size_t bodies = (u.size() - n) / 2;
+    if (bodies == 0) {
+        system_product(b, c, u, q);
+    } else {
+        std::vector<Vec3>& y = c.expanded;
+        std::vector<Vec3>& ay = c.expanded_product;
+        std::copy(u.begin(), u.begin() + std::ptrdiff_t(n), y.begin());
+        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+            const Vec3& V = u[n + 2 * r.rigid];
+            const Vec3& W = u[n + 2 * r.rigid + 1];
+            y[r.particle] += r.tied * (V + W.cross(r.arm) - u[r.particle]);
+        }
+        system_product(b, c, y, ay);
+        std::copy(ay.begin(), ay.end(), q.begin());
+        for (std::size_t k = 0; k < bodies; ++k) {
+            const SoftBody::CoupledRigid& body = b.coupled_rigids[k];
+            q[n + 2 * k] = body.mass * u[n + 2 * k];
+            q[n + 2 * k + 1] = body.rotates ? Vec3(body.inertia * u[n + 2 * k + 1]) : Vec3::Zero();
+        }
+        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+            const Vec3 tied = r.tied * ay[r.particle];
+            q[r.particle] -= tied;
+            q[n + 2 * r.rigid] += tied;
+            if (b.coupled_rigids[r.rigid].rotates) q[n + 2 * r.rigid + 1] += r.arm.cross(tied);
+        }
+    }
+    for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) q[r.particle] -= r.normal.dot(q[r.particle]) * r.normal;
 }
 
 // CG stopped before converging leaves a residual r = A Δv - rhs whose sum is a net force: the internal
 // forces cancel only in the exact solution, so a free cloth at the default cap of 10 iterations changed
 // its momentum by 1e-4 N s a step, with nothing touching it (5.8% of a thrown 0.5 kg cloth's in a
 // second). K and D annihilate a uniform velocity (translation invariance), so shifting every particle's Δv
-// by δ with (Σ m + Σ shares) δ = -Σ r leaves the internal forces' residual as it was and makes the
-// momentum change exactly the external impulses (and the coupled shares'). Only for bodies with no pinned
-// particle and no contact constraint, whose own rows fix parts of Δv.
-void conserve_momentum(const SoftBody& b, ImplicitEulerCache& c) {
-    const std::size_t n = c.dv.size();
-    system_product(b, c, c.dv, c.cg.q);
+// by δ with (Σ m P) δ = -Σ P r leaves the internal forces' residual as it was and makes the momentum
+// change exactly the external impulses and the tied bodies' (a tied particle's impulse, which its body
+// takes back, absorbs the residual in its tied directions C; P = I - C, I for a free particle). Only for
+// bodies with no pinned particle and no contact constraint, whose own rows fix parts of Δv. Returns δ,
+// from the reduced solution (before the tied particles' rows are expanded).
+Vec3 momentum_correction(const SoftBody& b, ImplicitEulerCache& c) {
+    const std::size_t n = c.mass.size();
+    reduced_product(b, c, c.dv, c.cg.q);
     Vec3 net = Vec3::Zero();
     Mat3 mass = Mat3::Zero();
     for (std::size_t i = 0; i < n; ++i) {
-        net += c.cg.q[i] - c.rhs[i];
+        net += c.cg.q[i] - c.rhs[i];  // the tied rows are P-filtered already
         mass.diagonal().array() += c.mass[i];
     }
-    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) mass += r.share;
-    const Vec3 delta = -mass.inverse() * net;
-    for (Vec3& v : c.dv) v += delta;
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) mass -= c.mass[r.particle] * r.tied;
+    if (!(mass.determinant() > Real(1e-12) * mass.trace() * mass.trace() * mass.trace())) return Vec3::Zero();
+    return -(mass.inverse() * net);
 }
 
 // The rest-factor preconditioner of an FEM body: A₀ = diag(m (1 + hλ drag) + hλ α m) + (h²λ² + hλ β) K₀
@@ -131,7 +188,25 @@ void step_implicit_euler(SoftBody& b, Real h) {
     const std::size_t m = b.links.size();
     if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
     ImplicitEulerCache& c = *b.implicit_cache;
-    c.resize(n, m);
+    // A two-way coupling layer's dynamic rigid bodies (coupling/coupling_layer.cpp, assign_shares): tied
+    // to contact particles, and to attached particles, which then join the solve (not pinned) moving
+    // with their target's point, so the body feels the springs inside this solve.
+    const bool coupled = !b.coupled_rigids.empty() && b.contact_rigid.size() == n && b.contact_stick.size() == n &&
+                         b.contact_arm.size() == n;
+    const std::size_t rigid_rows = coupled ? 2 * b.coupled_rigids.size() : 0;
+    c.resize(n, m, rigid_rows);
+    // An attached particle tied to its body stands at the body's predicted end-of-step point (the soft
+    // system placed it there), but in this solve it moves with the body from where the body is now: its
+    // forces are taken at the body's point now, or the solve's own motion of it, h v, would count twice
+    // (a 0.1 kg crate on a stiff rope then swung in a growing period-two oscillation). Put back after.
+    c.tied_attached.clear();
+    if (coupled)
+        for (const Attachment& at : b.attachments) {
+            const std::uint32_t i = at.particle;
+            if (b.contact_rigid[i] == SoftBody::kNoRigid) continue;
+            c.tied_attached.push_back({i, p.x[i]});
+            p.x[i] = b.coupled_rigids[b.contact_rigid[i]].com + b.contact_arm[i];
+        }
     for (const ForceModel* model : force_models())
         if (model->begin_step && model->present(b)) model->begin_step(b, h);
 
@@ -145,13 +220,8 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // ∂f/∂x v_n (times h²λ below).
     std::vector<Vec3>& f = c.force;
     c.pinned.clear();
-    // A two-way coupling layer's shares of dynamic rigid bodies (coupling/coupling_layer.cpp,
-    // assign_shares): on contact particles, and on attached particles, which then join the solve (not
-    // pinned) carrying their target's share, so the body feels the springs inside this solve.
-    const bool coupled = b.contact_share.size() == n && b.contact_surface_v.size() == n;
-    const auto held_by_target = [&](std::size_t i) {
-        return p.inv_mass[i] == 0 && !(coupled && !b.contact_share[i].isZero());
-    };
+    const auto tied = [&](std::size_t i) { return coupled && b.contact_rigid[i] != SoftBody::kNoRigid; };
+    const auto held_by_target = [&](std::size_t i) { return p.inv_mass[i] == 0 && !tied(i); };
     for (std::size_t i = 0; i < n; ++i) {
         f[i] = p.f[i] + p.mass[i] * (b.gravity - drag * p.v[i]);
         c.rhs[i].setZero();
@@ -206,78 +276,142 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // then settled at 0.920 of its volume, against 0.975 clamped at its base; with the filter 0.968 (a 1 m
     // cube of 1,080 tets, E = 1e5, dropped 0.5 m), and a 20k-tet block ends its landing with no inverted
     // tet (674 without). The soft system records contacts for FEM bodies and for bodies under two-way
-    // coupling (SoftSystem::record_contacts); against a dynamic rigid body the latter carry a share of it
-    // instead of a prescribed velocity (coupling/coupling_layer.cpp, assign_shares).
+    // coupling (SoftSystem::record_contacts); against a dynamic rigid body the particle is tied to the
+    // body instead (above, "Rigid bodies in the solve"), whose velocity the solve finds.
     c.contact_rows.clear();
     c.coupled_rows.clear();
-    const auto add_coupled_row = [&](std::uint32_t i) {
-        // The body's share joins the particle (an inelastic merge), then both take the forces: the share
-        // on the diagonal, its momentum relative to the particle on the right.
-        const Mat3& a = b.contact_share[i];
-        c.coupled_rows.push_back({i, a, b.contact_surface_v[i]});
-        c.rhs[i] += a * (b.contact_surface_v[i] - p.v[i]);
-        Real* B = c.cg.block(i);
-        B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
+    std::vector<Vec3>& z = c.force;  // free now: the forces are in rhs
+    std::fill(z.begin(), z.end(), Vec3::Zero());
+    const auto add_coupled_row = [&](std::uint32_t i, bool stick) {
+        const std::uint32_t k = b.contact_rigid[i];
+        const SoftBody::CoupledRigid& body = b.coupled_rigids[k];
+        const Vec3& arm = b.contact_arm[i];
+        const Mat3 C = stick ? Mat3(Mat3::Identity()) : Mat3(b.contact_normal[i] * b.contact_normal[i].transpose());
+        const Vec3 friction = !stick && b.contact_friction.size() == n ? Vec3(b.contact_friction[i]) : Vec3::Zero();
+        c.rhs[i] += friction;
+        c.coupled_rows.push_back({i, k, C, arm, c.rhs[i], friction});
+        const Vec3 v_start = p.inv_mass[i] == 0 ? Vec3::Zero() : p.v[i];  // an attached particle's counts as 0
+        z[i] = C * (body.v + body.w.cross(arm) - v_start);
+        // A tied particle's gap beyond its thickness is closed within the step, up to the contact slop.
+        // Tied along the normal, it moves with the body's point to first order, but on a curved body it
+        // leaves the surface by the square of its sliding over twice the radius: under a ball resting in a
+        // cloth the particles drifted past the slop, dropped out of the contact set, and came back, two
+        // steps in three; the ball never slept. Not beyond the slop: a tie held from further away (the
+        // rows' contacts) is not pulled in at up to 3 thicknesses a step; not inside (the contact pass's
+        // projection has that): pushed out at depth / h, particles striking a box off centre kept 2e-2 of
+        // their angular momentum (1e-3 without).
+        if (p.inv_mass[i] != 0 && b.contact_gap.size() == n)
+            z[i] -= (std::min(std::max(b.contact_gap[i], Real(0)), kContactSlop * b.def.thickness) / h) * b.contact_normal[i];
     };
     if (coupled)
         for (const Attachment& at : b.attachments)
-            if (!b.contact_share[at.particle].isZero()) add_coupled_row(at.particle);
+            if (tied(at.particle)) add_coupled_row(at.particle, true);
     if (b.contact_normal.size() == n)
         for (std::uint32_t i = 0; i < n; ++i) {
             const Vec3& nrm = b.contact_normal[i];
             if (p.inv_mass[i] == 0 || nrm.isZero()) continue;
             const Real approach = b.contact_speed[i] - nrm.dot(p.v[i]);  // > 0: moving into the collider
             if (approach < Real(-1e-3) || c.contact_released[i]) continue;  // leaving, or pulled last step
-            if (coupled && !b.contact_share[i].isZero()) {
-                add_coupled_row(i);
+            if (tied(i)) {
+                add_coupled_row(i, b.contact_stick[i] != 0);
                 continue;
             }
             c.contact_rows.push_back({i, nrm, std::max(approach, Real(0)) * nrm, nrm.dot(c.rhs[i])});
+            z[i] = c.contact_rows.back().dv_normal;
         }
-    c.cg.invert_blocks();
-    if (!c.contact_rows.empty()) {
-        std::vector<Vec3>& z = c.force;  // free now: the forces are in rhs
-        std::fill(z.begin(), z.end(), Vec3::Zero());
-        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) z[r.particle] = r.dv_normal;
-        system_product(b, c, z, c.cg.q);
-        for (std::size_t i = 0; i < n; ++i) c.rhs[i] -= c.cg.q[i];
-        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
-            c.rhs[r.particle] -= r.normal.dot(c.rhs[r.particle]) * r.normal;
-            // The preconditioner filtered the same way: S B⁻¹ S.
-            Real* B = c.cg.block(r.particle);
-            Mat3 inv;
-            inv << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
-            const Mat3 S = Mat3::Identity() - r.normal * r.normal.transpose();
-            const Mat3 f = S * inv * S;
-            B[0] = f(0, 0), B[1] = f(1, 1), B[2] = f(2, 2), B[3] = f(0, 1), B[4] = f(0, 2), B[5] = f(1, 2);
+    // The bodies' rows: their inertia on the diagonal, and the tied particles' blocks carried over
+    // (Jᵀ B J's diagonal, before the blocks are inverted).
+    for (std::size_t k = 0; k < rigid_rows / 2; ++k) {
+        const SoftBody::CoupledRigid& body = b.coupled_rigids[k];
+        Real* BV = c.cg.block(n + 2 * k);
+        Real* BW = c.cg.block(n + 2 * k + 1);
+        BV[0] = BV[1] = BV[2] = body.mass;
+        BV[3] = BV[4] = BV[5] = 0;
+        const Mat3& I = body.inertia;
+        if (body.rotates) BW[0] = I(0, 0), BW[1] = I(1, 1), BW[2] = I(2, 2), BW[3] = I(0, 1), BW[4] = I(0, 2), BW[5] = I(1, 2);
+        else std::fill(BW, BW + 6, Real(0));
+        c.rhs[n + 2 * k].setZero();
+        c.rhs[n + 2 * k + 1].setZero();
+    }
+    const auto add_block = [](Real* B, const Mat3& a) {
+        B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
+    };
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+        const Real* B = c.cg.block(r.particle);
+        Mat3 a;
+        a << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
+        const Mat3 cac = r.tied * a * r.tied;
+        add_block(c.cg.block(n + 2 * r.rigid), cac);
+        if (b.coupled_rigids[r.rigid].rotates) {
+            const Mat3 R = skew(r.arm);
+            add_block(c.cg.block(n + 2 * r.rigid + 1), -(R * cac * R));
         }
     }
-    const auto filtered_product = [&](const std::vector<Vec3>& u, std::vector<Vec3>& q) {
-        system_product(b, c, u, q);
-        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) q[r.particle] -= r.normal.dot(q[r.particle]) * r.normal;
+    c.cg.invert_blocks();
+    // The right side S (rhs - A z) on the particles, Jᵀ of it on the tied ones and their bodies.
+    if (!c.contact_rows.empty() || !c.coupled_rows.empty()) {
+        system_product(b, c, z, c.cg.q);
+        for (std::size_t i = 0; i < n; ++i) c.rhs[i] -= c.cg.q[i];
+    }
+    const auto filter_block = [&](std::uint32_t i, const Mat3& S) {
+        // The preconditioner filtered as the system is: S B⁻¹ S.
+        Real* B = c.cg.block(i);
+        Mat3 inv;
+        inv << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
+        const Mat3 f = S * inv * S;
+        B[0] = f(0, 0), B[1] = f(1, 1), B[2] = f(2, 2), B[3] = f(0, 1), B[4] = f(0, 2), B[5] = f(1, 2);
+    };
+    for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
+        c.rhs[r.particle] -= r.normal.dot(c.rhs[r.particle]) * r.normal;
+        filter_block(r.particle, Mat3::Identity() - r.normal * r.normal.transpose());
+    }
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+        const Vec3 tied_rhs = r.tied * c.rhs[r.particle] - r.friction;  // the body takes the friction's opposite
+        c.rhs[r.particle] -= r.tied * c.rhs[r.particle];
+        c.rhs[n + 2 * r.rigid] += tied_rhs;
+        if (b.coupled_rigids[r.rigid].rotates) c.rhs[n + 2 * r.rigid + 1] += r.arm.cross(tied_rhs);
+        filter_block(r.particle, Mat3::Identity() - r.tied);
+    }
+    const auto filtered_product = [&](const std::vector<Vec3>& u, std::vector<Vec3>& q) { reduced_product(b, c, u, q); };
+    // The reduced unknowns' filter, for vectors CG starts from or the rest factor returns.
+    const auto filter_unknowns = [&](std::vector<Vec3>& u) {
+        for (const std::uint32_t i : c.pinned) u[i].setZero();
+        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) u[r.particle] -= r.normal.dot(u[r.particle]) * r.normal;
+        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) u[r.particle] -= r.tied * u[r.particle];
     };
 
     // Preconditioned CG on A Δv = rhs (soft/block_cg.hpp), from the last step's Δv if that one converged,
-    // else from 0.
+    // else from 0. The bodies' rows always start from 0 (the bodies may not be last step's).
     const bool warm = c.cg_converged;
     if (warm) {
-        for (std::uint32_t i : c.pinned) c.dv[i].setZero();
-        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) c.dv[r.particle] -= r.normal.dot(c.dv[r.particle]) * r.normal;
+        filter_unknowns(c.dv);
+        for (std::size_t k = n; k < c.dv.size(); ++k) c.dv[k].setZero();
     }
     BlockCg::Result res;
     if (b.fem && b.def.preconditioner == SoftPreconditioner::RestFactor && prepare_rest_factor(b, c)) {
-        // P = S R_N A₀⁻¹ R_Nᵀ S (soft/fem_rest_factor.hpp), filtered as the system is.
+        // P = S R_N A₀⁻¹ R_Nᵀ S (soft/fem_rest_factor.hpp), filtered as the system is; block Jacobi on the
+        // bodies' rows.
         const auto rest_factor = [&](const std::vector<Vec3>& r, std::vector<Vec3>& z) {
             c.rest_factor->apply(r, z);
-            for (const std::uint32_t i : c.pinned) z[i].setZero();
-            for (const ImplicitEulerCache::ContactRow& row : c.contact_rows) z[row.particle] -= row.normal.dot(z[row.particle]) * row.normal;
+            filter_unknowns(z);
+            for (std::size_t k = n; k < r.size(); ++k) z[k] = c.cg.precondition(k, r[k]);
         };
         res = c.cg.solve(filtered_product, rest_factor, c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
     } else {
         res = c.cg.solve(filtered_product, c.rhs, c.dv, b.def.cg_tolerance, b.def.iterations, warm);
     }
-    for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) c.dv[r.particle] += r.dv_normal;
-    if (c.pinned.empty() && c.contact_rows.empty() && !res.converged) conserve_momentum(b, c);
+    const Vec3 shift = c.pinned.empty() && c.contact_rows.empty() && !res.converged ? momentum_correction(b, c) : Vec3::Zero();
+    // Δv = J Δq + z on the particles: the tied ones take their body's velocity change at their arm.
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
+        const Vec3& V = c.dv[n + 2 * r.rigid];
+        const Vec3& W = c.dv[n + 2 * r.rigid + 1];
+        c.dv[r.particle] += r.tied * (V + W.cross(r.arm) - c.dv[r.particle]);
+    }
+    for (std::size_t i = 0; i < n; ++i) c.dv[i] += z[i] + shift;
+    for (std::size_t k = 0; k < rigid_rows / 2; ++k) {
+        b.coupled_rigids[k].dv = c.dv[n + 2 * k];
+        b.coupled_rigids[k].dw = c.dv[n + 2 * k + 1];
+    }
     // The impulse each constraint applied, n · (A Δv - rhs): negative means it held the particle down
     // (the collider pulled), and that contact is released for the next step; positive, its normal velocity
     // change is the contact pass's friction budget (SoftBody::contact_dvn).
@@ -285,25 +419,22 @@ void step_implicit_euler(SoftBody& b, Real h) {
     if (b.contact_dvn.size() != n) b.contact_dvn.assign(n, Real(0));
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
     std::fill(b.contact_share_impulse.begin(), b.contact_share_impulse.end(), Vec3::Zero());
-    if (!c.contact_rows.empty()) {
-        system_product(b, c, c.dv, c.cg.q);
-        for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
-            const Real impulse = r.normal.dot(c.cg.q[r.particle]) - r.rhs_normal;
-            if (impulse < 0)
-                c.contact_released[r.particle] = 1;
-            else
-                b.contact_dvn[r.particle] = impulse / c.mass[r.particle];
-        }
+    if (!c.contact_rows.empty() || !c.coupled_rows.empty()) system_product(b, c, c.dv, c.cg.q);
+    for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
+        const Real impulse = r.normal.dot(c.cg.q[r.particle]) - r.rhs_normal;
+        if (impulse < 0)
+            c.contact_released[r.particle] = 1;
+        else
+            b.contact_dvn[r.particle] = impulse / c.mass[r.particle];
     }
 
-    // The coupled shares: each ends at the particle's velocity; the impulse it gave the particle,
-    // share (surface_v - v'), is what the coupling layer takes from the rigid body (whatever its
-    // direction: the solve included it). One that pulled along the normal is released for the next step,
-    // as the constraints above are.
+    // The tied particles: the impulse the body gave each, λ = C (A Δv - rhs), is what the coupling layer
+    // takes from the body. One that pulled along the normal is released for the next step, as the
+    // constraints above are.
     if (!c.coupled_rows.empty()) {
         if (b.contact_share_impulse.size() != n) b.contact_share_impulse.assign(n, Vec3::Zero());
         for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-            const Vec3 j = r.share * (r.surface_v - p.v[r.particle] - c.dv[r.particle]);
+            const Vec3 j = r.tied * (c.cg.q[r.particle] - r.rhs) + r.friction;
             b.contact_share_impulse[r.particle] = j;
             if (p.inv_mass[r.particle] == 0) continue;  // an attachment: bilateral, it may pull
             const Real jn = j.dot(b.contact_normal[r.particle]);
@@ -328,6 +459,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     c.cg_converged = res.converged;
 
     // State n+1.
+    for (const auto& [i, at] : c.tied_attached) p.x[i] = at;
     for (std::size_t i = 0; i < n; ++i) {
         p.x_prev[i] = p.x[i];
         if (p.inv_mass[i] == 0) {

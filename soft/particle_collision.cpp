@@ -10,9 +10,6 @@
 namespace sinew {
 namespace {
 
-// A resting particle is reported as touching while it is this close to the surface (fraction of its
-// thickness), so contacts do not flicker on and off between steps.
-constexpr Real kContactSlop = Real(0.1);
 // Restitution only acts above this approach speed (m/s), as in the rigid solvers: slow contacts
 // (a resting particle gains g h per step) must not bounce.
 constexpr Real kRestitutionThreshold = Real(1);

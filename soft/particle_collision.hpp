@@ -14,6 +14,10 @@
 
 namespace sinew {
 
+/// A resting particle is reported as touching while it is this close to the surface (fraction of its
+/// thickness), so contacts do not flicker on and off between steps.
+constexpr Real kContactSlop = Real(0.1);
+
 /// Signed distance query of a point against a placed shape: the closest surface point, the outward
 /// normal there and the signed distance (< 0 inside). Returns false when the point is further than
 /// `max_distance` from the shape (nothing else is written then).

@@ -186,19 +186,46 @@ struct SoftBody {
     /// the solve, not the pass, stopped the particle. Empty: none.
     std::vector<Real> contact_dvn;
     /// Per particle, with contact_normal: the owner of the collider it touched (Collider::owner), for a
-    /// two-way coupling layer's mass shares (contact_share below).
+    /// two-way coupling layer's rigid bodies in the solve (contact_rigid below).
     std::vector<std::uint32_t> contact_owner;
     /// Implicit Euler holds this body's contacts in its solve (recorded by the contact pass). Always for
-    /// FEM bodies; for mass-spring bodies when a two-way coupling layer asks (its mass shares ride on the recorded contacts).
+    /// FEM bodies; for mass-spring bodies when a two-way coupling layer asks (its rigid bodies join the solve through the recorded contacts).
     bool hold_contacts = false;
-    /// Per particle, set by a two-way coupling layer before the step (empty, or a zero matrix: none): the
-    /// share (kg, a symmetric 3x3 inertia) of the dynamic rigid body it touches (contact_owner) that
-    /// implicit Euler moves with it, starting at the body's velocity there (contact_surface_v);
-    /// contact_share_impulse then reports the impulse that share gave the particle, for the layer to take
-    /// from the body. On an attached particle (inverse mass 0) the share is of its target body and the
-    /// particle joins the solve instead of being held (two-way attachments).
-    std::vector<Mat3> contact_share;
-    std::vector<Vec3> contact_surface_v;
+    /// A dynamic rigid body a two-way coupling layer joins to this body's implicit Euler solve
+    /// (soft/implicit_euler.cpp, "Rigid bodies in the solve"): its velocity and inertia become unknowns of
+    /// the same linear system, tied to the particles that touch it (contact_rigid).
+    struct CoupledRigid {
+        Vec3 com = Vec3::Zero();  ///< centre of mass at the start of the step
+        Vec3 v = Vec3::Zero();    ///< velocity at the start of the step, the step's gravity included
+        Vec3 w = Vec3::Zero();    ///< angular velocity at the start of the step
+        Real mass = 0;            ///< kg
+        Mat3 inertia = Mat3::Zero();  ///< world inertia tensor (kg m²)
+        bool rotates = false;     ///< false: the rotation is locked (its inverse inertia singular) and stays
+        std::uint32_t owner = 0;  ///< the body's Collider::owner (its rigid slot)
+        Vec3 dv = Vec3::Zero();   ///< written by the solve: the change of v it found
+        Vec3 dw = Vec3::Zero();   ///< written by the solve: the change of w it found
+    };
+    /// Set by a two-way coupling layer before the step (empty: none): the bodies, and per particle the one
+    /// it is tied to (an index into coupled_rigids, or kNoRigid) and how: contact_stick 1 in all three
+    /// directions (an attached particle, or a contact where friction holds), 0 along contact_normal only
+    /// (no friction, or last step's impulse left the friction cone). An attached particle (inverse mass 0)
+    /// tied to its target joins the solve instead of being held (two-way attachments).
+    /// contact_share_impulse then reports the impulse the body gave each tied particle in the solve, for
+    /// the layer to take from the body.
+    static constexpr std::uint32_t kNoRigid = ~std::uint32_t(0);
+    std::vector<CoupledRigid> coupled_rigids;
+    std::vector<std::uint32_t> contact_rigid;
+    std::vector<std::uint8_t> contact_stick;
+    /// Per tied particle: the arm of the point it moves with, from the body's centre of mass (the
+    /// particle's position; for an attached particle its attachment point on the body at the start of the
+    /// step, where the particle itself already stands at the body's predicted pose).
+    std::vector<Vec3> contact_arm;
+    /// Per tied particle: its distance to the body's surface beyond its thickness at the start of the step
+    /// (m, < 0: inside); the solve closes it along the normal within the step.
+    std::vector<Real> contact_gap;
+    /// Per particle tied along the normal only: the kinetic friction impulse the body gives it this step
+    /// (N s, across the normal; zero: none), the body taking the opposite.
+    std::vector<Vec3> contact_friction;
     std::vector<Vec3> contact_share_impulse;
     /// One per attachment when a coupling layer asks for them (sized to `attachments`; empty: not asked):
     /// the impulse (N s) holding the attached particle on its target took in the last solve (implicit
@@ -231,6 +258,9 @@ struct SoftBody {
     /// Set by the same layer for a body whose proxy is dynamic: the proxy's rigid island decides when the
     /// body sleeps (SoftSystem::put_to_sleep), not the soft system's own thresholds.
     bool sleeps_with_proxy = false;
+    /// Set by a coupling layer during a step: the body may not start to sleep at its end (a rigid body it
+    /// carries is still awake); cleared by the sleep update.
+    bool kept_awake = false;
     Vec3 gravity = Vec3::Zero();  ///< acceleration applied this step (world gravity × gravity_scale)
     bool awake = true;
     bool stepping = false;      ///< advanced by the step in progress (awake at its IntegrateVelocities)

@@ -592,8 +592,9 @@ void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
 }
 
 void SoftSystem::update_sleep(SoftBody& b, Real h) {
-    if (!settings_.sleeping || !b.def.allow_sleep || b.sleeps_with_proxy) {
+    if (!settings_.sleeping || !b.def.allow_sleep || b.sleeps_with_proxy || b.kept_awake) {
         b.sleep_timer = 0;
+        b.kept_awake = false;
         return;
     }
     const Real limit2 = settings_.sleep_velocity * settings_.sleep_velocity;

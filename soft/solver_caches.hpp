@@ -23,6 +23,7 @@ namespace sinew {
 /// the per-link system blocks of the current step.
 struct ImplicitEulerCache {
     std::vector<Vec3> force;  ///< f(x_n, v_n) + external + gravity + pressure (N)
+    /// Both with one row per particle, then two per coupled rigid body (its Δv and Δω).
     std::vector<Vec3> rhs;    ///< h (f_n + h λ ∂f/∂x v_n), zero at pinned particles
     std::vector<Vec3> dv;     ///< the unknown Δv; the next step starts from it if CG converged
     /// Link j's block of the system matrix, S_j = iso I + aniso dir dirᵀ
@@ -45,16 +46,22 @@ struct ImplicitEulerCache {
         Real rhs_normal = 0;  ///< n · rhs before the filter (for the constraint's force after the solve)
     };
     std::vector<ContactRow> contact_rows;
-    /// Particles touching a dynamic rigid body under two-way coupling (SoftBody::contact_share): the body's
-    /// share (a 3x3 inertia at the contact point) moves with the particle inside the solve (A gains the
-    /// share, the right side the share's momentum relative to the particle), so the body's inertia meets
-    /// the springs implicitly instead of through a prescribed velocity.
+    /// Particles tied to a dynamic rigid body under two-way coupling (SoftBody::contact_rigid): in the
+    /// directions C (n nᵀ, or I where friction holds) the particle's velocity is the body's at its arm, so
+    /// the body's velocity and angular velocity are unknowns of the solve (soft/implicit_euler.cpp).
     struct CoupledRow {
         std::uint32_t particle = 0;
-        Mat3 share = Mat3::Zero();      ///< kg
-        Vec3 surface_v = Vec3::Zero();  ///< the body's velocity at the particle at the start of the step
+        std::uint32_t rigid = 0;        ///< index into SoftBody::coupled_rigids
+        Mat3 tied = Mat3::Zero();       ///< C: the directions tied to the body
+        Vec3 arm = Vec3::Zero();        ///< particle minus the body's centre of mass, at the start of the step
+        Vec3 rhs = Vec3::Zero();        ///< the particle's right-hand side before the tie (for its impulse)
+        Vec3 friction = Vec3::Zero();   ///< the kinetic friction impulse the body gives it (SoftBody::contact_friction)
     };
     std::vector<CoupledRow> coupled_rows;
+    /// Attached particles tied to their body this step, and where the soft system had placed them (the
+    /// body's predicted point), restored after the solve.
+    std::vector<std::pair<std::uint32_t, Vec3>> tied_attached;
+    std::vector<Vec3> expanded, expanded_product;  ///< scratch per particle: J u and A J u in the coupled product
     /// Per particle: 1 if its contact constraint pulled it towards the collider in the last solve
     /// (adhesion); the next step leaves it free, as Baraff & Witkin release such constraints.
     std::vector<std::uint8_t> contact_released;
@@ -72,8 +79,9 @@ struct ImplicitEulerCache {
     Real cg_residual = 0;       ///< final sqrt(rᵀ P r / bᵀ P b) (P the preconditioner)
     bool cg_converged = false;  ///< reached b.def.cg_tolerance within the b.def.iterations cap
 
-    /// Sizes the arrays for n particles and m links (no-op when they already fit).
-    void resize(std::size_t n, std::size_t m);
+    /// Sizes the arrays for n particles, m links and `rigid_rows` extra rows (two per coupled rigid body;
+    /// no-op when they already fit).
+    void resize(std::size_t n, std::size_t m, std::size_t rigid_rows = 0);
 };
 
 /// Liu et al. 2013 fast mass-spring (soft/fast_mass_spring.cpp): the constant global matrix

@@ -260,11 +260,11 @@ double static_sink(const SceneDesc& scene, const World& w, double weight) {
 
 TEST_CASE("box-on-soft-block: the block's top under the box sinks to the converged static solve's depth", "[coupling]") {
     // The static solve (static_sink above, a rigid level box, linear elasticity) puts the four top nodes
-    // under the box 2.34 mm down. Two-way coupling, settled for 1.5 s: their mean depth 2.35-2.36 mm under
-    // every rigid solver (0.4-0.9%), within the issue's 2%. The deepest of them sinks 2.44 mm: the box's
-    // inertia is shared evenly over the particles it touches, which a static solve with equal loads of
-    // Mg/4 reproduces exactly (2.44 and 2.27 mm), where a rigid box would press the stiffer nodes harder
-    // (docs/coupling.md, open).
+    // under the box 2.34 mm down. Two-way coupling, settled for 1.5 s: each of them 2.33-2.35 mm down
+    // under every rigid solver (means 2.338-2.349 mm, within 0.4%), within the issue's 2%: the box is a
+    // rigid body inside the block's implicit solve, so it presses the stiffer nodes harder and stays
+    // level. With its mass split evenly over the nodes as independent shares the deepest sank 2.44 mm and
+    // the other pair 2.27 mm (a static solve with equal loads of Mg/4 reproduces those).
     const SceneDesc scene = parse_scene_file(scene_path("box-on-soft-block.json"));
     double expected = 0;
     for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
@@ -275,17 +275,21 @@ TEST_CASE("box-on-soft-block: the block's top under the box sinks to the converg
         auto w = build_world(d);
         if (expected == 0) expected = static_sink(d, *w, 20 * 9.81);
         for (int k = 0; k < 90; ++k) w->step();
-        double mean = 0;
+        double mean = 0, shallowest = 1, deepest = 0;
         int count = 0;
         for (const Vec3& x : w->soft().body(w->soft().bodies()[0]).p.x)
             if (std::abs(x.x()) < Real(0.15) && std::abs(x.z()) < Real(0.15) && x.y() > Real(0.3)) {
                 mean += double(x.y());
+                shallowest = std::min(shallowest, 0.4 - double(x.y()));
+                deepest = std::max(deepest, 0.4 - double(x.y()));
                 ++count;
             }
         REQUIRE(count == 4);
         mean /= count;
         CHECK(expected == Approx(0.00234).epsilon(0.01));
         CHECK(0.4 - mean == Approx(expected).epsilon(0.02));
+        CHECK(shallowest == Approx(expected).epsilon(0.02));
+        CHECK(deepest == Approx(expected).epsilon(0.02));
     }
 }
 
@@ -435,11 +439,10 @@ double trampoline_static_rest(const SoftBody& b, const std::vector<Vec3>& flat, 
 
 TEST_CASE("ball-on-trampoline: the ball comes to rest at the converged static solve's depth, its weight carried", "[coupling]") {
     // Two-way, 10 s: the ball settles where the cloth's springs, gravity and the contacts balance. The
-    // static solve above puts it 0.2886-0.2889 m into the cloth (its bottom below the pinned corners'
-    // plane, with the ball held where the run left it). Measured in float: soft step 0.75%, split
-    // impulses 1.05%, Newton 0.8% deeper (friction holds the nodes it dragged; frictionless, the ball
-    // sleeps 0.12% above the static depth); the issue asks for 2%. Over the last second the contacts the
-    // cloth reports carry the ball's weight within 0.1%.
+    // static solve above puts it 0.2884-0.2889 m into the cloth (its bottom below the pinned corners'
+    // plane, with the ball held where the run left it). Measured: soft step 0.8%, split impulses 0.4%,
+    // Newton 0.4% deeper in float (0.4%, 0.05%, 0.6% in double); the issue asks for 2%. Over the last
+    // second the contacts the cloth reports carry the ball's weight within 0.1%.
     const SceneDesc scene = parse_scene_file(scene_path("ball-on-trampoline.json"));
     for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
         INFO(rigid_solver_name(solver));
@@ -473,9 +476,9 @@ TEST_CASE("ball-on-trampoline: a frictionless ball takes no spin from the cloth 
     // Without friction a contact pushes a sphere through its centre: its spin must stay zero. The rows
     // and the implicit solve's shares take the sphere's normal where the particle is at the start of the
     // step (round_body_normal); with the normal found at the predicted positions the ball spun up to 0.4
-    // rad/s in 10 s and 3.5 in 20 s, and never slept. Measured in float: 9.4e-4 rad/s at most (what is
-    // left comes from the contact pass's pushes, still along the found normal), asleep within 12 s with
-    // the cloth; the bound is ten times that, forty times under the old spin at 10 s.
+    // rad/s in 10 s and 3.5 in 20 s, and never slept. Measured in float: 2.7e-3 rad/s at most (what is
+    // left comes from the contact pass's pushes, still along the found normal), asleep within 6 s with
+    // the cloth; the bound is four times that, forty times under the old spin at 10 s.
     SceneDesc d = parse_scene_file(scene_path("ball-on-trampoline.json"));
     d.bodies[1].def.material.friction = 0;
     d.soft_bodies[0].def.friction = 0;
@@ -498,6 +501,40 @@ TEST_CASE("ball-on-trampoline: a frictionless ball takes no spin from the cloth 
                                             double(w->rigid().mass(ids[1])), 0.2 + double(cloth.def.thickness), gradient);
     REQUIRE(gradient < 1e-6);
     CHECK(1 - (double(at.y()) - 0.2) == Approx(1 - (y - 0.2)).epsilon(0.02));
+}
+
+TEST_CASE("ball-on-trampoline: the ball with friction comes to rest in the cloth and sleeps under every rigid solver", "[coupling]") {
+    // Issue 15: a rigid body resting on a soft body must be able to sleep. The scene as it is (friction
+    // 0.5, sleeping on). The ball is tied to the particles under it inside the cloth's implicit solve
+    // (soft/implicit_euler.cpp, "Rigid bodies in the solve"), sliding ties under kinetic friction until
+    // they stop (coupling/coupling_layer.cpp); with independent mass shares and friction switching off
+    // every other step it rocked at 1-3 cm/s and never slept. Measured: asleep, ball and cloth, after
+    // 11.6 s (soft step), 8.3 s (split impulses), 8.5 s (Newton) in float, 12.0, 8.1 and 9.6 s in double;
+    // the bound is 15 s. Asleep where the converged static solve puts it, within the issue's 2% (measured
+    // 0.2-0.7% in float, 0.3-1.2% in double).
+    const SceneDesc scene = parse_scene_file(scene_path("ball-on-trampoline.json"));
+    for (RigidSolverKind solver : {RigidSolverKind::SoftStep, RigidSolverKind::SplitImpulse, RigidSolverKind::Newton}) {
+        INFO(rigid_solver_name(solver));
+        SceneDesc d = scene;
+        d.settings.rigid.solver = solver;
+        std::vector<BodyId> ids;
+        auto w = build_world(d, &ids);
+        int asleep_at = -1;
+        for (int k = 0; k < 900 && asleep_at < 0; ++k) {
+            w->step();
+            if (!w->rigid().awake(ids[1]) && !w->soft().awake(w->soft().bodies()[0])) asleep_at = k;
+        }
+        CHECK(asleep_at >= 0);
+        const Vec3 at = w->rigid().transform(ids[1]).p;
+        for (int k = 0; k < 60; ++k) w->step();
+        CHECK(w->rigid().transform(ids[1]).p == at);  // stays asleep where it fell asleep
+        const SoftBody& cloth = w->soft().body(w->soft().bodies()[0]);
+        double gradient = 1;
+        const double y = trampoline_static_rest(cloth, d.soft_bodies[0].def.positions, double(at.x()), double(at.z()),
+                                                double(w->rigid().mass(ids[1])), 0.2 + double(cloth.def.thickness), gradient);
+        REQUIRE(gradient < 1e-6);
+        CHECK(1 - (double(at.y()) - 0.2) == Approx(1 - (y - 0.2)).epsilon(0.02));
+    }
 }
 
 TEST_CASE("coupling settings: bad input is refused with the field named, nothing changed", "[coupling][errors]") {
@@ -602,15 +639,18 @@ TEST_CASE("interleaved coupling: wrong at a 1:1 mass ratio, agrees with two-way 
         return -double(w->rigid().mass(box) * w->rigid().linear_velocity(box).z());
     };
     const double p0 = 1.5;  // the cloth's momentum, N s
-    // 1:1: two-way shares it (measured 0.93 N s to the box); interleaved gives the box all of it.
+    // 1:1: two-way shares it (measured 0.92 N s to the box); interleaved gives the box all of it.
     const double two_1 = box_momentum("two-way", 0.5), inter_1 = box_momentum("interleaved", 0.5);
     CHECK(two_1 < 0.8 * p0);
     CHECK(inter_1 == Approx(p0).epsilon(1e-3));
     CHECK(std::abs(inter_1 - two_1) > 0.3 * p0);
-    // 1:1000: the box takes (nearly) all of it under both; they agree within 1e-3 of the cloth's momentum
-    // (measured 5.5e-4: what the 0.5 kg cloth keeps rebounding off a 500 kg box under two-way).
+    // 1:1000: the box takes (nearly) all of it under both. A perfectly inelastic strike leaves the cloth on
+    // the box at the common velocity, with m/(M+m) = 1e-3 of the momentum, which interleaving, where the
+    // cloth stops dead, gives the box as well; so they agree within twice that (the cloth still settling
+    // against the box after 1 s): measured 1.4e-3 (two-way's box 1.49795 N s, the inelastic answer 1.49850).
     const double two_k = box_momentum("two-way", 500), inter_k = box_momentum("interleaved", 500);
-    CHECK(std::abs(inter_k - two_k) < 1e-3 * p0);
+    CHECK(std::abs(inter_k - two_k) < 2e-3 * p0);
+    CHECK(two_k == Approx(p0 * 500 / 500.5).epsilon(2e-3));
 }
 
 namespace {
@@ -836,14 +876,15 @@ TEST_CASE("hybrid coupling at gain 1 exchanges momentum, at the soft system's ow
 
 TEST_CASE("a rigid body resting on a soft body under two-way coupling falls asleep, and so does the soft body", "[coupling]") {
     // box-on-soft-block with sleeping on (the scene's default): once both are still, both sleep, and the
-    // box stays where the block carried it. Measured in float and double: asleep within 1 s with split
-    // impulses (friction 0.5) and with the soft step without friction. Open: the soft step with friction
-    // keeps the box trembling (1e-2 m/s, 0.1 rad/s in double), so that case is not asserted here.
+    // box stays where the block carried it. Measured in float: asleep within 0.65 s under every case here.
+    // With the box's mass split into independent shares, the soft step with friction kept it trembling
+    // (1e-2 m/s, 0.1 rad/s in double) and it did not sleep.
     struct Case {
         RigidSolverKind solver;
         Real friction;
     };
-    for (const Case c : {Case{RigidSolverKind::SplitImpulse, Real(0.5)}, Case{RigidSolverKind::SoftStep, Real(0)}}) {
+    for (const Case c : {Case{RigidSolverKind::SplitImpulse, Real(0.5)}, Case{RigidSolverKind::SoftStep, Real(0)},
+                         Case{RigidSolverKind::SoftStep, Real(0.5)}, Case{RigidSolverKind::Newton, Real(0.5)}}) {
         INFO(rigid_solver_name(c.solver) << ", friction " << c.friction);
         SceneDesc d = parse_scene_file(scene_path("box-on-soft-block.json"));
         d.settings.rigid.solver = c.solver;
