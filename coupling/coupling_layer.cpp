@@ -20,10 +20,10 @@ CouplingLayer::CouplingLayer(Pipeline& pipeline, RigidSystem& rigid, SoftSystem&
     hooks_[2] = pipeline.add_hook(soft_index, Stage::IntegratePositions, HookWhen::After,
                                   [this](const StepContext&) { after_step(); }, "coupling: report");
     hooks_[3] = pipeline.add_hook(soft_index, Stage::IntegrateVelocities, HookWhen::Before,
-                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "coupling: rigid shares");
+                                  [this](const StepContext& ctx) { begin_step(ctx.h); }, "coupling: rigid ties");
     const int rigid_index = pipeline.find_system(rigid.name());
     hooks_[4] = pipeline.add_hook(rigid_index, Stage::SolveVelocities, HookWhen::Before,
-                                  [this](const StepContext&) { send_back_share_impulses(); }, "coupling: shares -> rigid");
+                                  [this](const StepContext&) { send_back_tie_impulses(); }, "coupling: ties -> rigid");
     hooks_[5] = pipeline.add_hook(rigid_index, Stage::IntegrateVelocities, HookWhen::Before,
                                   [this](const StepContext&) {
                                       apply_interleaved_forces();
@@ -144,9 +144,9 @@ bool CouplingLayer::any(CouplingStrategy s) const {
 void CouplingLayer::begin_step(Real h) {
     fem_embedding_.place(settings_, any(CouplingStrategy::EmbedFem), h);
     rows_.reset();
-    attach_shares_.clear();
+    attach_ties_.clear();
     // Implicit Euler bodies under two-way coupling record their contacts (FEM bodies always do): the
-    // next solve holds those against static colliders and carries shares of the dynamic bodies.
+    // next solve holds those against static colliders and ties them to the dynamic bodies.
     const bool world_two_way = settings_.strategy == CouplingStrategy::TwoWay;
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
@@ -163,23 +163,23 @@ void CouplingLayer::begin_step(Real h) {
         // bodies (their elements are not swept there) and Verlet bodies (hard links: as rows they converged
         // too slowly without warm starting and diverged with it) are coupled as under two-way.
         b.solved_by_rows = one_solver && !b.fem && b.def.method != SoftMethod::Verlet;
-        two_way = (two_way || one_solver) && !b.solved_by_rows;  // a body solved in the rigid solver has no shares
-        if (b.solved_by_rows) b.contact_share_impulse.clear();
+        two_way = (two_way || one_solver) && !b.solved_by_rows;  // a body solved in the rigid solver has no ties
+        if (b.solved_by_rows) b.contact_tie_impulse.clear();
         b.hold_contacts = two_way;
-        if (two_way && b.awake) assign_shares(b, id, s, h);
+        if (two_way && b.awake) tie_rigid_bodies(b, id, s, h);
         else b.coupled_rigids.clear();
         ask_attachment_reactions(b, id);
     }
     sent_back_.clear();
 }
 
-void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
+void CouplingLayer::tie_rigid_bodies(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h) {
     // Each particle the last contact pass (or the rows) found on a dynamic rigid body is tied to that body
     // in this step's implicit solve (soft/implicit_euler.cpp, "Rigid bodies in the solve"): the body's
     // velocity and angular velocity join the solve's unknowns (starting where the body is now, gravity
     // over the step included if the solver adds it later), and the particle moves with the body's point
     // along the normal, or in all three directions where friction holds it; the body then takes what it
-    // gave the particles (send_back_share_impulses). Coulomb a step late: a particle whose impulse left the
+    // gave the particles (send_back_tie_impulses). Coulomb a step late: a particle whose impulse left the
     // cone is tied along the normal only in the next step.
     // Tried before and replaced:
     //  - the body's mass split evenly over the particles touching it as independent shares, each moving
@@ -193,23 +193,28 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     //    in the cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its
     //    small rotational inertia a step late.
     b.coupled_rigids.clear();
+    // The friction state of last step's ties; none once a step goes by without ties (a bounce), or for a
+    // body new in the slot.
+    if (slip_.size() <= slot) slip_.resize(slot + 1);
+    if (tied_before_.size() <= slot) tied_before_.resize(slot + 1);
+    std::vector<Vec3>& slip = slip_[slot];
+    std::vector<std::uint8_t>& tied_before = tied_before_[slot];
+    const auto forget_ties = [&] {
+        slip.assign(b.p.size(), Vec3::Zero());
+        tied_before.assign(b.p.size(), 0);
+    };
+    if (slip.size() != b.p.size() || tied_before.size() != b.p.size()) forget_ties();
     const bool contacts_known = b.contact_owner.size() == b.p.size() && b.contact_normal.size() == b.p.size();
-    if (!contacts_known && b.attachments.empty()) return;
+    if (!contacts_known && b.attachments.empty()) return forget_ties();
     const RigidSystem::State& st = rigid_.state();
     const bool gravity_pending = rigid_.gravity_in_solve();
-    if (slip_.size() <= slot) slip_.resize(slot + 1);
-    std::vector<Vec3>& slip = slip_[slot];
-    if (slip.size() != b.p.size()) slip.assign(b.p.size(), Vec3::Zero());
-    if (tied_before_.size() <= slot) tied_before_.resize(slot + 1);
-    std::vector<std::uint8_t>& tied_before = tied_before_[slot];
-    if (tied_before.size() != b.p.size()) tied_before.assign(b.p.size(), 0);
     const auto eligible = [&](std::uint32_t i) {
         if (!contacts_known) return false;
         const std::uint32_t o = b.contact_owner[i];
         if (b.p.inv_mass[i] == 0 || b.contact_normal[i].isZero() || o >= rigid_.slot_count() || !rigid_.slot_alive(o))
             return false;
         if (rigid_.slot_type(o) != BodyType::Dynamic || st.inv_mass[o] == 0) return false;
-        return shares_with(b, coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)));
+        return ties_with(b, coupling_strategy_of(settings_, id, rigid_.id_of_slot(o)));
     };
     // Per rigid slot, its index in b.coupled_rigids (kNoRigid: none yet); the slots used are reset at the end.
     if (rigid_index_.size() < rigid_.slot_count()) rigid_index_.resize(rigid_.slot_count(), SoftBody::kNoRigid);
@@ -236,27 +241,27 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
     // point in all three directions and joins the solve (soft/implicit_euler.cpp): the rope's springs
     // then pull the body implicitly, which a heavy body on a light rope (1:1000) needs. Only implicit
     // Euler solves with bodies; a sleeping body is woken first, since a soft body that moves pulls on it.
-    const std::size_t first_attachment = attach_shares_.size();
+    const std::size_t first_attachment = attach_ties_.size();
     if (b.def.method == SoftMethod::ImplicitEuler)
         for (const Attachment& a : b.attachments) {
             BodyId rid;
             if (!dynamic_target(a, rid)) continue;
-            if (!shares_with(b, coupling_strategy_of(settings_, id, rid))) continue;
+            if (!ties_with(b, coupling_strategy_of(settings_, id, rid))) continue;
             if (st.inv_mass[rid.index] == 0) rigid_.wake(rid);
             if (st.inv_mass[rid.index] == 0) continue;
             const Vec3 arm = rigid_.slot_transform(rid.index).apply(a.local_point) - st.x[rid.index];
-            attach_shares_.push_back({slot, a.particle, rid.index, arm});
+            attach_ties_.push_back({slot, a.particle, rid.index, arm});
         }
-    bool any_tie = attach_shares_.size() > first_attachment;
+    bool any_tie = attach_ties_.size() > first_attachment;
     for (std::uint32_t i = 0; i < b.p.size() && !any_tie; ++i) any_tie = eligible(i);
-    if (!any_tie) return;
+    if (!any_tie) return forget_ties();
     b.contact_rigid.assign(b.p.size(), SoftBody::kNoRigid);
     b.contact_stick.assign(b.p.size(), 0);
     b.contact_gap.assign(b.p.size(), Real(0));
     b.contact_arm.assign(b.p.size(), Vec3::Zero());
     b.contact_friction.assign(b.p.size(), Vec3::Zero());
-    for (std::size_t k = first_attachment; k < attach_shares_.size(); ++k) {
-        const AttachShare& a = attach_shares_[k];
+    for (std::size_t k = first_attachment; k < attach_ties_.size(); ++k) {
+        const AttachTie& a = attach_ties_[k];
         b.contact_rigid[a.particle] = body_index(a.rigid);
         b.contact_stick[a.particle] = 1;
         b.contact_arm[a.particle] = a.arm;
@@ -276,12 +281,14 @@ void CouplingLayer::assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot
         if (point_shape_distance(b.p.x[i], rigid_.slot_shape(o), rigid_.slot_transform(o), 3 * b.def.thickness, closest,
                                  normal, distance))
             b.contact_gap[i] = distance - b.def.thickness;
-        b.contact_speed[i] = b.contact_normal[i].dot(body.v + body.w.cross(r));
+        const Vec3& n = b.contact_normal[i];
+        b.contact_speed[i] = n.dot(body.point_velocity(r));
         b.contact_rigid[i] = rigid_index_[o];
         b.contact_arm[i] = r;
-        const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
-        b.contact_stick[i] = mu > 0 && slip[i].isZero() && tied_before[i] ? 1 : 0;
-        b.contact_friction[i] = mu > 0 ? slip[i] : Vec3::Zero();
+        const bool friction = tie_friction(b, o) > 0;
+        b.contact_stick[i] = friction && slip[i].isZero() && tied_before[i] ? 1 : 0;
+        // Across this step's normal (last step's may have turned a little).
+        b.contact_friction[i] = friction ? Vec3(slip[i] - slip[i].dot(n) * n) : Vec3::Zero();
     }
     for (const std::uint32_t o : coupled_slots_) rigid_index_[o] = SoftBody::kNoRigid;
     coupled_slots_.clear();
@@ -341,25 +348,30 @@ void CouplingLayer::send_back_attachment_reactions(Real h) {
     }
 }
 
-void CouplingLayer::send_back_share_impulses() {
+void CouplingLayer::send_back_tie_impulses() {
     if (!any(CouplingStrategy::TwoWay) && !any(CouplingStrategy::OneSolver)) return;
     const RigidSystem::State& st = rigid_.state();
     for (std::uint32_t s = 0; s < soft_.slot_count(); ++s) {
         if (!soft_.slot_alive(s)) continue;
         const SoftBody& b = soft_.slot_body(s);
         const std::size_t n = b.p.size();
-        if (!b.stepping || b.coupled_rigids.empty() || b.contact_rigid.size() != n || b.contact_share_impulse.size() != n)
+        if (!b.stepping || b.coupled_rigids.empty() || b.contact_rigid.size() != n || b.contact_tie_impulse.size() != n)
             continue;
         std::vector<Vec3>& slip = slip_[s];
         for (std::uint32_t i = 0; i < n; ++i) {
             if (b.p.inv_mass[i] == 0) continue;  // attachments below
+            const Vec3& jp = b.contact_tie_impulse[i];  // what the body gave the particle
+            // In the contact set this step, whether or not the solve gave it a row: one it left out for a
+            // step (moving away, or released after pulling) is not a new impact. Counted only with a row,
+            // the ball in the cloth kept rocking at up to 0.95 rad/s under Newton in double, for 40 s.
             tied_before_[s][i] = b.contact_rigid[i] != SoftBody::kNoRigid;
-            if (b.contact_rigid[i] == SoftBody::kNoRigid) {
+            if (!tied_before_[s][i] || jp.isZero()) {
                 slip[i].setZero();
                 continue;
             }
-            const Vec3& jp = b.contact_share_impulse[i];  // what the body gave the particle
-            const std::uint32_t o = b.contact_owner[i];
+            const SoftBody::CoupledRigid& body = b.coupled_rigids[b.contact_rigid[i]];
+            const std::uint32_t o = body.owner;
+            const Vec3& arm = b.contact_arm[i];
             const Vec3& nrm = b.contact_normal[i];
             // Coulomb, a step late. A particle held in all three directions whose tangential impulse left
             // the cone slides in the next step, tied along the normal, under kinetic friction mu jn along
@@ -370,34 +382,31 @@ void CouplingLayer::send_back_share_impulses() {
             // every other step, and the ball rolled in place at 0.24 rad/s.
             const Real jn = jp.dot(nrm);
             const Vec3 jt = jp - jn * nrm;
-            const Real mu = std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(o).friction));
-            const Real bound = mu * std::max(jn, Real(0));
+            const Real bound = tie_friction(b, o) * std::max(jn, Real(0));
             if (b.contact_stick[i]) {
                 const Real t = jt.norm();
                 slip[i] = t > bound ? Vec3((bound / t) * jt) : Vec3::Zero();
             } else if (!slip[i].isZero()) {
-                const SoftBody::CoupledRigid& body = b.coupled_rigids[b.contact_rigid[i]];
-                const Vec3& arm = b.contact_arm[i];
-                Vec3 u = b.p.v[i] - (body.v + body.dv + (body.w + body.dw).cross(arm));
+                Vec3 u = b.p.v[i] - body.end_point_velocity(arm);
                 u -= u.dot(nrm) * nrm;
                 const Real speed = u.norm();
                 slip[i] = u.dot(slip[i]) < 0 && speed > 0 ? Vec3((-bound / speed) * u) : Vec3::Zero();
             }
-            if (jp.isZero()) continue;
-            // Along the line through the particle; given inside the rigid solve, a share per sub-step
-            // (ParticleRows::queue_push).
+            // Along the line through the particle; given inside the rigid solve, a part per sub-step
+            // (ParticleRows::queue_push). A body whose rotation the solve left out (rotates: false) takes
+            // no moment either.
             const Vec3 j = -jp;
-            rows_.queue_push(o, j, b.p.x[i] - st.x[o]);
+            rows_.queue_push(o, j, body.rotates ? arm : Vec3::Zero());
             sent_back_.push_back({o, s, i, b.p.x[i] - b.def.thickness * nrm, nrm, j, true});
         }
     }
-    // Attachments: what the share gave the attached particle, taken from the body at the attachment point.
-    for (const AttachShare& a : attach_shares_) {
+    // Attachments: what the tie gave the attached particle, taken from the body at the attachment point.
+    for (const AttachTie& a : attach_ties_) {
         const SoftBody& b = soft_.slot_body(a.soft);
-        if (!b.stepping || b.contact_share_impulse.size() != b.p.size()) continue;
-        const Vec3 j = -b.contact_share_impulse[a.particle];
-        if (j.isZero()) continue;
-        rows_.queue_push(a.rigid, j, a.arm);
+        if (!b.stepping || b.contact_tie_impulse.size() != b.p.size()) continue;
+        const Vec3 j = -b.contact_tie_impulse[a.particle];
+        if (j.isZero() || b.contact_rigid.size() != b.p.size() || b.contact_rigid[a.particle] >= b.coupled_rigids.size()) continue;
+        rows_.queue_push(a.rigid, j, b.coupled_rigids[b.contact_rigid[a.particle]].rotates ? a.arm : Vec3::Zero());
         sent_back_.push_back({a.rigid, a.soft, a.particle, st.x[a.rigid] + a.arm, Vec3::Zero(), j, true});
     }
 }
@@ -520,7 +529,7 @@ void CouplingLayer::after_step() {
     // A particle the rows pushed is in contact even if the contact pass, which looks at the particle's
     // final position, found it just outside its slop (the soft step's rows settle a box about 0.2
     // thicknesses above a block, and with rows alone the block sank ten times its static depth): it
-    // takes a share of the body in the next step's implicit solve too.
+    // is tied to the body in the next step's implicit solve too.
     rows_.for_each_pushing([&](std::uint32_t s, std::uint32_t i, std::uint32_t rigid, const Vec3& n) {
         SoftBody& b = soft_.slot_body(s);
         if (b.contact_normal.size() != b.p.size() || b.contact_owner.size() != b.p.size()) return;

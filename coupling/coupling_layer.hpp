@@ -6,11 +6,11 @@
 // pipeline; seed 001 Figure 9):
 //   two-way  the particle rows (coupling/particle_rows.hpp) are a row source of the rigid solver, built
 //            from the soft system's collision planes and solved in every rigid iteration and sub-step.
-//            An implicit Euler body's contact particles carry shares of the rigid bodies they touch
-//            through its own solve (soft/implicit_euler.cpp, CoupledRow): what the shares gave the
-//            particles is taken from the bodies inside the rigid solve, so a body feels the springs
-//            implicitly, not only the particles' inertia (which alone let a 1 kg ball sink through a
-//            0.5 kg cloth).
+//            The rigid bodies an implicit Euler body's particles touch are unknowns of its own solve,
+//            those particles tied to them (soft/implicit_euler.cpp, "Rigid bodies in the solve"): what
+//            the ties gave the particles is taken from the bodies inside the rigid solve, so a body feels
+//            the springs implicitly, not only the particles' inertia (which alone let a 1 kg ball sink
+//            through a 0.5 kg cloth).
 //            Before soft SolveVelocities the rows' velocity changes go into the soft bodies' predictions;
 //            after it (every velocity solved, no position integrated) the impulses the soft contact pass
 //            still had to give those particles go back to the rigid bodies, and the rows are solved again
@@ -21,6 +21,8 @@
 // The impulses soft bodies gave rigid bodies in the last step are kept (impulses()) for events.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -91,11 +93,11 @@ private:
     /// Before soft IntegratePositions: soft bodies that carried an awake rigid body stay awake.
     void keep_tied_bodies_awake();
     /// Two-way: the impulses the rigid bodies tied to implicit Euler's solve gave its particles
-    /// (SoftBody::contact_share_impulse), sent back inside the rigid solve.
-    void send_back_share_impulses();
+    /// (SoftBody::contact_tie_impulse), sent back inside the rigid solve.
+    void send_back_tie_impulses();
     /// Two-way: the rigid bodies tied to implicit body `b`'s particles in this step's solve
     /// (SoftBody::coupled_rigids, contact_rigid).
-    void assign_shares(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
+    void tie_rigid_bodies(SoftBody& b, SoftBodyId id, std::uint32_t slot, Real h);
     /// The attachment's target, if it still exists and is a dynamic body (its frame written this step).
     bool dynamic_target(const Attachment& a, BodyId& out) const;
     /// Sizes b.attachment_impulse when a hybrid or interleaved attachment of b wants its reaction.
@@ -110,9 +112,13 @@ private:
     /// under `strategy`, times `gain`, applied to those bodies' velocities now.
     void send_back_contact_impulses(CouplingStrategy strategy, Real gain);
     bool any(CouplingStrategy s) const;
-    /// Body b carries shares of rigid bodies coupled to it by `s`: two-way, or one-solver for a body the
+    /// Body b is solved with the rigid bodies coupled to it by `s`: two-way, or one-solver for a body the
     /// rigid solver does not take whole (FEM and Verlet bodies).
-    static bool shares_with(const SoftBody& b, CouplingStrategy s) {
+    /// The friction coefficient of a tie between b and the rigid body in `rigid_slot` (geometric mean).
+    Real tie_friction(const SoftBody& b, std::uint32_t rigid_slot) const {
+        return std::sqrt(std::max(Real(0), b.def.friction * rigid_.slot_material(rigid_slot).friction));
+    }
+    static bool ties_with(const SoftBody& b, CouplingStrategy s) {
         return s == CouplingStrategy::TwoWay || (s == CouplingStrategy::OneSolver && !b.solved_by_rows);
     }
 
@@ -148,13 +154,13 @@ private:
     FemEmbedding fem_embedding_;
     std::vector<CouplingImpulse> impulses_;
     std::vector<CouplingImpulse> sent_back_;  ///< this step's reactions, merged into impulses_ after it
-    std::vector<std::uint32_t> rigid_index_;   ///< scratch of assign_shares: per rigid slot, its index in the body's coupled_rigids
-    std::vector<std::uint32_t> coupled_slots_; ///< scratch of assign_shares: the slots given an index
-    struct AttachShare {
+    std::vector<std::uint32_t> rigid_index_;   ///< scratch of tie_rigid_bodies: per rigid slot, its index in the body's coupled_rigids
+    std::vector<std::uint32_t> coupled_slots_; ///< scratch of tie_rigid_bodies: the slots given an index
+    struct AttachTie {
         std::uint32_t soft, particle, rigid;
         Vec3 arm;  ///< attachment point - centre of mass, at the start of the step
     };
-    std::vector<AttachShare> attach_shares_;   ///< this step's two-way attachments carrying shares
+    std::vector<AttachTie> attach_ties_;   ///< this step's two-way attachments tied to their bodies
     /// Per soft slot, per particle: the kinetic friction impulse of a sliding tie (zero: held, or not tied).
     std::vector<std::vector<Vec3>> slip_;
     /// Per soft slot, per particle: tied in the last step (a new tie starts along the normal only).

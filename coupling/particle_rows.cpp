@@ -404,7 +404,7 @@ void ParticleRows::solve_springs(const BodyVelocities& vel) {
     // own side only): a 0.5 kg cloth thrown at a free box changed the total momentum by 11% in a second.
     // Springs do not see a uniform velocity shift, so one per body restores its momentum balance: what
     // the particles gained since the (sub-)step began is exactly the outside impulses (rows, shares, the
-    // contact pass), as implicit Euler's conserve_momentum does for CG. Bodies with pinned or kinematically
+    // contact pass), as implicit Euler's momentum_correction does for CG. Bodies with pinned or kinematically
     // attached particles are held by them and keep the sweep's result.
     for (const WholeBody& wb : whole_bodies_) {
         if (wb.held || !(wb.mass > 0)) continue;

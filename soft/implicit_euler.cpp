@@ -28,7 +28,7 @@
 // Pinned particles (inverse mass 0) are removed by Baraff-Witkin's filter S = 0: their rows of the
 // residual, the preconditioner and every product are zero, so Δv stays 0 there and CG runs in the free
 // subspace. Their velocity counts as 0 in Δx (the system has already placed attached particles). An
-// attached particle carrying a two-way layer's share of its rigid body is not filtered: it solves for the
+// attached particle a two-way layer ties to its rigid body is not filtered: it solves for the
 // change of the body's velocity at that point, which the layer hands to the body.
 //
 // CG: block-Jacobi (3x3 diagonal blocks, inverted once per step) preconditioner; stops when
@@ -93,7 +93,7 @@ void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::v
         for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
 
-// Rigid bodies in the solve (two-way coupling, coupling/coupling_layer.cpp, assign_shares). A particle
+// Rigid bodies in the solve (two-way coupling, coupling/coupling_layer.cpp, tie_rigid_bodies). A particle
 // tied to a dynamic rigid body moves with the body's point in the tied directions C (n nᵀ, or I where
 // friction holds): v_i = P u_i + C (V + ω × r_i), P = I - C. The unknowns are the particles' free parts
 // u and each body's (ΔV, Δω), and with J that map, the step minimises the particles' implicit Euler
@@ -107,6 +107,31 @@ void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::v
 // velocity, and a ball resting in a cloth rocked at 1-3 cm/s for good, the set of particles carrying it
 // alternating between two sides of it every step (docs/coupling.md).
 
+// A 3x3 block of BlockCg's storage (xx, yy, zz, xy, xz, yz) as a matrix, and a matrix into it.
+Mat3 block_matrix(const Real* B) {
+    Mat3 a;
+    a << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
+    return a;
+}
+void set_block(Real* B, const Mat3& a) {
+    B[0] = a(0, 0), B[1] = a(1, 1), B[2] = a(2, 2), B[3] = a(0, 1), B[4] = a(0, 2), B[5] = a(1, 2);
+}
+
+// J on a tied row: the particle's own part where it is free, its body's point velocity where tied. u holds
+// the particles' rows, then two per body.
+Vec3 tied_row(const ImplicitEulerCache::CoupledRow& r, const std::vector<Vec3>& u, std::size_t n) {
+    const Vec3& own = u[r.particle];
+    return own + r.tied * (u[n + 2 * r.rigid] + u[n + 2 * r.rigid + 1].cross(r.arm) - own);
+}
+
+// Jᵀ on a tied row: of the particle's row x, the tied part goes to its body's rows (force, and moment if
+// the body turns), the rest stays.
+void scatter_tied(const SoftBody& b, const ImplicitEulerCache::CoupledRow& r, const Vec3& tied, std::vector<Vec3>& q,
+                  std::size_t n) {
+    q[n + 2 * r.rigid] += tied;
+    if (b.coupled_rigids[r.rigid].rotates) q[n + 2 * r.rigid + 1] += r.arm.cross(tied);
+}
+
 // q = (Jᵀ A J + diag(M, I)) u on the reduced rows, the contact constraints' S applied (the particles' own
 // filter, Baraff & Witkin 1998 §5.3).
 // The bodies' rows follow the particles' (u.size() - n of them, two per body).
@@ -119,11 +144,7 @@ void reduced_product(const SoftBody& b, ImplicitEulerCache& c, const std::vector
         std::vector<Vec3>& y = c.expanded;
         std::vector<Vec3>& ay = c.expanded_product;
         std::copy(u.begin(), u.begin() + std::ptrdiff_t(n), y.begin());
-        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-            const Vec3& V = u[n + 2 * r.rigid];
-            const Vec3& W = u[n + 2 * r.rigid + 1];
-            y[r.particle] += r.tied * (V + W.cross(r.arm) - u[r.particle]);
-        }
+        for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) y[r.particle] = tied_row(r, u, n);
         system_product(b, c, y, ay);
         std::copy(ay.begin(), ay.end(), q.begin());
         for (std::size_t k = 0; k < bodies; ++k) {
@@ -134,8 +155,7 @@ void reduced_product(const SoftBody& b, ImplicitEulerCache& c, const std::vector
         for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
             const Vec3 tied = r.tied * ay[r.particle];
             q[r.particle] -= tied;
-            q[n + 2 * r.rigid] += tied;
-            if (b.coupled_rigids[r.rigid].rotates) q[n + 2 * r.rigid + 1] += r.arm.cross(tied);
+            scatter_tied(b, r, tied, q, n);
         }
     }
     for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) q[r.particle] -= r.normal.dot(q[r.particle]) * r.normal;
@@ -188,7 +208,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     const std::size_t m = b.links.size();
     if (!b.implicit_cache) b.implicit_cache = std::make_unique<ImplicitEulerCache>();
     ImplicitEulerCache& c = *b.implicit_cache;
-    // A two-way coupling layer's dynamic rigid bodies (coupling/coupling_layer.cpp, assign_shares): tied
+    // A two-way coupling layer's dynamic rigid bodies (coupling/coupling_layer.cpp, tie_rigid_bodies): tied
     // to contact particles, and to attached particles, which then join the solve (not pinned) moving
     // with their target's point, so the body feels the springs inside this solve.
     const bool coupled = !b.coupled_rigids.empty() && b.contact_rigid.size() == n && b.contact_stick.size() == n &&
@@ -290,8 +310,10 @@ void step_implicit_euler(SoftBody& b, Real h) {
         const Vec3 friction = !stick && b.contact_friction.size() == n ? Vec3(b.contact_friction[i]) : Vec3::Zero();
         c.rhs[i] += friction;
         c.coupled_rows.push_back({i, k, C, arm, c.rhs[i], friction});
-        const Vec3 v_start = p.inv_mass[i] == 0 ? Vec3::Zero() : p.v[i];  // an attached particle's counts as 0
-        z[i] = C * (body.v + body.w.cross(arm) - v_start);
+        // An attached particle's velocity is kept at 0 between steps (the force models read it so), so the
+        // body starts it from rest every step (docs/coupling.md, open: m v a step taken from the body).
+        const Vec3 v_start = p.inv_mass[i] == 0 ? Vec3::Zero() : p.v[i];
+        z[i] = C * (body.point_velocity(arm) - v_start);
         // A tied particle's gap beyond its thickness is closed within the step, up to the contact slop.
         // Tied along the normal, it moves with the body's point to first order, but on a curved body it
         // leaves the surface by the square of its sliding over twice the radius: under a ball resting in a
@@ -327,20 +349,13 @@ void step_implicit_euler(SoftBody& b, Real h) {
         Real* BW = c.cg.block(n + 2 * k + 1);
         BV[0] = BV[1] = BV[2] = body.mass;
         BV[3] = BV[4] = BV[5] = 0;
-        const Mat3& I = body.inertia;
-        if (body.rotates) BW[0] = I(0, 0), BW[1] = I(1, 1), BW[2] = I(2, 2), BW[3] = I(0, 1), BW[4] = I(0, 2), BW[5] = I(1, 2);
-        else std::fill(BW, BW + 6, Real(0));
+        set_block(BW, body.rotates ? body.inertia : Mat3::Zero());
         c.rhs[n + 2 * k].setZero();
         c.rhs[n + 2 * k + 1].setZero();
     }
-    const auto add_block = [](Real* B, const Mat3& a) {
-        B[0] += a(0, 0), B[1] += a(1, 1), B[2] += a(2, 2), B[3] += a(0, 1), B[4] += a(0, 2), B[5] += a(1, 2);
-    };
+    const auto add_block = [](Real* B, const Mat3& a) { set_block(B, block_matrix(B) + a); };
     for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-        const Real* B = c.cg.block(r.particle);
-        Mat3 a;
-        a << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
-        const Mat3 cac = r.tied * a * r.tied;
+        const Mat3 cac = r.tied * block_matrix(c.cg.block(r.particle)) * r.tied;
         add_block(c.cg.block(n + 2 * r.rigid), cac);
         if (b.coupled_rigids[r.rigid].rotates) {
             const Mat3 R = skew(r.arm);
@@ -356,20 +371,16 @@ void step_implicit_euler(SoftBody& b, Real h) {
     const auto filter_block = [&](std::uint32_t i, const Mat3& S) {
         // The preconditioner filtered as the system is: S B⁻¹ S.
         Real* B = c.cg.block(i);
-        Mat3 inv;
-        inv << B[0], B[3], B[4], B[3], B[1], B[5], B[4], B[5], B[2];
-        const Mat3 f = S * inv * S;
-        B[0] = f(0, 0), B[1] = f(1, 1), B[2] = f(2, 2), B[3] = f(0, 1), B[4] = f(0, 2), B[5] = f(1, 2);
+        set_block(B, S * block_matrix(B) * S);
     };
     for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
         c.rhs[r.particle] -= r.normal.dot(c.rhs[r.particle]) * r.normal;
         filter_block(r.particle, Mat3::Identity() - r.normal * r.normal.transpose());
     }
     for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-        const Vec3 tied_rhs = r.tied * c.rhs[r.particle] - r.friction;  // the body takes the friction's opposite
-        c.rhs[r.particle] -= r.tied * c.rhs[r.particle];
-        c.rhs[n + 2 * r.rigid] += tied_rhs;
-        if (b.coupled_rigids[r.rigid].rotates) c.rhs[n + 2 * r.rigid + 1] += r.arm.cross(tied_rhs);
+        const Vec3 tied = r.tied * c.rhs[r.particle];
+        c.rhs[r.particle] -= tied;
+        scatter_tied(b, r, tied - r.friction, c.rhs, n);  // the body takes the friction's opposite
         filter_block(r.particle, Mat3::Identity() - r.tied);
     }
     const auto filtered_product = [&](const std::vector<Vec3>& u, std::vector<Vec3>& q) { reduced_product(b, c, u, q); };
@@ -402,11 +413,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     }
     const Vec3 shift = c.pinned.empty() && c.contact_rows.empty() && !res.converged ? momentum_correction(b, c) : Vec3::Zero();
     // Δv = J Δq + z on the particles: the tied ones take their body's velocity change at their arm.
-    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
-        const Vec3& V = c.dv[n + 2 * r.rigid];
-        const Vec3& W = c.dv[n + 2 * r.rigid + 1];
-        c.dv[r.particle] += r.tied * (V + W.cross(r.arm) - c.dv[r.particle]);
-    }
+    for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) c.dv[r.particle] = tied_row(r, c.dv, n);
     for (std::size_t i = 0; i < n; ++i) c.dv[i] += z[i] + shift;
     for (std::size_t k = 0; k < rigid_rows / 2; ++k) {
         b.coupled_rigids[k].dv = c.dv[n + 2 * k];
@@ -418,7 +425,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
     std::fill(c.contact_released.begin(), c.contact_released.end(), std::uint8_t(0));
     if (b.contact_dvn.size() != n) b.contact_dvn.assign(n, Real(0));
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
-    std::fill(b.contact_share_impulse.begin(), b.contact_share_impulse.end(), Vec3::Zero());
+    std::fill(b.contact_tie_impulse.begin(), b.contact_tie_impulse.end(), Vec3::Zero());
     if (!c.contact_rows.empty() || !c.coupled_rows.empty()) system_product(b, c, c.dv, c.cg.q);
     for (const ImplicitEulerCache::ContactRow& r : c.contact_rows) {
         const Real impulse = r.normal.dot(c.cg.q[r.particle]) - r.rhs_normal;
@@ -432,10 +439,10 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // takes from the body. One that pulled along the normal is released for the next step, as the
     // constraints above are.
     if (!c.coupled_rows.empty()) {
-        if (b.contact_share_impulse.size() != n) b.contact_share_impulse.assign(n, Vec3::Zero());
+        if (b.contact_tie_impulse.size() != n) b.contact_tie_impulse.assign(n, Vec3::Zero());
         for (const ImplicitEulerCache::CoupledRow& r : c.coupled_rows) {
             const Vec3 j = r.tied * (c.cg.q[r.particle] - r.rhs) + r.friction;
-            b.contact_share_impulse[r.particle] = j;
+            b.contact_tie_impulse[r.particle] = j;
             if (p.inv_mass[r.particle] == 0) continue;  // an attachment: bilateral, it may pull
             const Real jn = j.dot(b.contact_normal[r.particle]);
             if (jn < 0) c.contact_released[r.particle] = 1;
@@ -445,7 +452,7 @@ void step_implicit_euler(SoftBody& b, Real h) {
 
     // What holding each attached particle on its target took: its row of the unfiltered system, the
     // impulse J = (A Δv - rhs)_i the filter's constraint supplied (its own Δv is 0), for a hybrid or
-    // interleaved layer to send back to the body. A two-way share reports through contact_share_impulse.
+    // interleaved layer to send back to the body. A two-way tie reports through contact_tie_impulse.
     if (attachment_reactions) {
         system_product(b, c, c.dv, c.cg.q, false);
         for (std::size_t k = 0; k < b.attachments.size(); ++k) {

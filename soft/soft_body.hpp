@@ -204,13 +204,15 @@ struct SoftBody {
         std::uint32_t owner = 0;  ///< the body's Collider::owner (its rigid slot)
         Vec3 dv = Vec3::Zero();   ///< written by the solve: the change of v it found
         Vec3 dw = Vec3::Zero();   ///< written by the solve: the change of w it found
+        Vec3 point_velocity(const Vec3& arm) const { return v + w.cross(arm); }
+        Vec3 end_point_velocity(const Vec3& arm) const { return v + dv + (w + dw).cross(arm); }
     };
     /// Set by a two-way coupling layer before the step (empty: none): the bodies, and per particle the one
     /// it is tied to (an index into coupled_rigids, or kNoRigid) and how: contact_stick 1 in all three
     /// directions (an attached particle, or a contact where friction holds), 0 along contact_normal only
-    /// (no friction, or last step's impulse left the friction cone). An attached particle (inverse mass 0)
+    /// (no friction, a tie new this step, or one sliding: its impulse left the friction cone). An attached particle (inverse mass 0)
     /// tied to its target joins the solve instead of being held (two-way attachments).
-    /// contact_share_impulse then reports the impulse the body gave each tied particle in the solve, for
+    /// contact_tie_impulse then reports the impulse the body gave each tied particle in the solve, for
     /// the layer to take from the body.
     static constexpr std::uint32_t kNoRigid = ~std::uint32_t(0);
     std::vector<CoupledRigid> coupled_rigids;
@@ -226,7 +228,7 @@ struct SoftBody {
     /// Per particle tied along the normal only: the kinetic friction impulse the body gives it this step
     /// (N s, across the normal; zero: none), the body taking the opposite.
     std::vector<Vec3> contact_friction;
-    std::vector<Vec3> contact_share_impulse;
+    std::vector<Vec3> contact_tie_impulse;
     /// One per attachment when a coupling layer asks for them (sized to `attachments`; empty: not asked):
     /// the impulse (N s) holding the attached particle on its target took in the last solve (implicit
     /// Euler fills it), whose opposite a hybrid or interleaved layer sends back to the rigid body.

@@ -499,7 +499,7 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     // Only implicit Euler reads them: its constraint filter (Baraff & Witkin 1998 §5.3) holds each
     // particle's normal velocity in the next step's solve, instead of leaving it to the projection after
     // the solve, whose position pushes the links learn of a step late. FEM bodies and bodies a two-way
-    // coupling layer asks for (hold_contacts: its shares read them too) hold every contact. Other bodies
+    // coupling layer asks for (hold_contacts: its ties read them too) hold every contact. Other bodies
     // hold their contacts with colliders at rest (static ones, or a kinematic body not moving):
     // - measured (float, h = 1/60): a 33 x 33 tablecloth over a table kept particles along the table's
     //   side in a period-two flutter at 0.4 m/s for good (held: 2-4 mm/s, 1e-7 J); an implicit pressure
@@ -580,7 +580,7 @@ void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
     // Nothing of the blown-up solve carries over: implicit Euler's warm start (its last dv), the contact
     // arrays the solve filled, the FEM rotations' warm start. The body sits out the step's other sub-steps.
     b.implicit_cache.reset();
-    for (std::vector<Vec3>* a : {&b.contact_normal, &b.contact_share_impulse, &b.attachment_impulse})
+    for (std::vector<Vec3>* a : {&b.contact_normal, &b.contact_tie_impulse, &b.attachment_impulse})
         for (Vec3& x : *a) x.setZero();
     std::fill(b.contact_dvn.begin(), b.contact_dvn.end(), Real(0));
     b.soft_planes.clear();
