@@ -180,7 +180,8 @@ void CouplingLayer::tie_rigid_bodies(SoftBody& b, SoftBodyId id, std::uint32_t s
     // over the step included if the solver adds it later), and the particle moves with the body's point
     // along the normal, or in all three directions where friction holds it; the body then takes what it
     // gave the particles (send_back_tie_impulses). Coulomb a step late: a particle whose impulse left the
-    // cone is tied along the normal only in the next step.
+    // cone is tied along the normal only in the next step, under kinetic friction (send_back_tie_impulses),
+    // and so is a particle new to the contact set.
     // Tried before and replaced:
     //  - the body's mass split evenly over the particles touching it as independent shares, each moving
     //    with its particle: their impulses did not agree with one body velocity, and a ball resting in a
@@ -189,7 +190,7 @@ void CouplingLayer::tie_rigid_bodies(SoftBody& b, SoftBodyId id, std::uint32_t s
     //  - a prescribed speed with the reaction sent explicitly (Baraff-Witkin's filter): it made energy
     //    (a 1 kg ball bounced 12% above its drop height off a 0.5 kg cloth) and diverged once the cloth's
     //    damping passed about 2 M / (h N) (20 N s/m here);
-    //  - ties along the normal only with friction left to the rows and the contact pass: the ball resting
+    //  - shares along the normal only, friction left to the rows and the contact pass: the ball resting
     //    in the cloth spun up (to 7 rad/s in 3 s) and rolled off, the cloth's tangential pull reaching its
     //    small rotational inertia a step late.
     b.coupled_rigids.clear();

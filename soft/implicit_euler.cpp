@@ -133,8 +133,7 @@ void scatter_tied(const SoftBody& b, const ImplicitEulerCache::CoupledRow& r, co
 }
 
 // q = (Jᵀ A J + diag(M, I)) u on the reduced rows, the contact constraints' S applied (the particles' own
-// filter, Baraff & Witkin 1998 §5.3).
-// The bodies' rows follow the particles' (u.size() - n of them, two per body).
+// filter, Baraff & Witkin 1998 §5.3). The bodies' rows follow the particles' (u.size() - n, two per body).
 void reduced_product(const SoftBody& b, ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q) {
     const std::size_t n = c.mass.size();
     const std::size_t bodies = (u.size() - n) / 2;

@@ -53,7 +53,7 @@ struct ImplicitEulerCache {
         std::uint32_t particle = 0;
         std::uint32_t rigid = 0;        ///< index into SoftBody::coupled_rigids
         Mat3 tied = Mat3::Zero();       ///< C: the directions tied to the body
-        Vec3 arm = Vec3::Zero();        ///< particle minus the body's centre of mass, at the start of the step
+        Vec3 arm = Vec3::Zero();        ///< from the body's centre of mass to the point it moves with (SoftBody::contact_arm)
         Vec3 rhs = Vec3::Zero();        ///< the particle's right-hand side before the tie (for its impulse)
         Vec3 friction = Vec3::Zero();   ///< the kinetic friction impulse the body gives it (SoftBody::contact_friction)
     };
