@@ -117,6 +117,7 @@ BodyId RigidSystem::create_body(const BodyDef& def) {
     ignored_changed_ = true;  // the pair list is rebuilt with this body's filter
     mass_[slot] = dynamic ? mp.mass : 0;
     body_inv_mass_[slot] = dynamic ? 1 / mp.mass : 0;
+    widen_inv_mass_range(body_inv_mass_[slot]);
     inv_inertia_local_[slot] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
     inertia_local_[slot] = dynamic ? mp.inertia : Mat3::Zero();
     {
@@ -253,6 +254,7 @@ void RigidSystem::reshape(BodyId id, const Shape& shape, Real mass, const Mat3& 
     }
     mass_[s] = mass;
     body_inv_mass_[s] = 1 / mass;
+    widen_inv_mass_range(body_inv_mass_[s]);
     inertia_local_[s] = inertia;
     inv_inertia_local_[s] = inertia.inverse();
     const Real k = inertia.trace() / 3;

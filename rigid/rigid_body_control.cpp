@@ -60,6 +60,7 @@ void RigidSystem::set_type(BodyId id, BodyType type) {
     type_[s] = type;
     mass_[s] = dynamic ? mp.mass : 0;
     body_inv_mass_[s] = dynamic ? 1 / mp.mass : 0;
+    widen_inv_mass_range(body_inv_mass_[s]);
     inertia_local_[s] = dynamic ? mp.inertia : Mat3::Zero();
     inv_inertia_local_[s] = dynamic ? Mat3(mp.inertia.inverse()) : Mat3::Zero();
     {

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "engine/core/format.hpp"
 #include "rigid/constraint_rows.hpp"
@@ -23,8 +24,19 @@ const TaskSystem* RigidSystem::body_stage_tasks() const {
 }
 
 void RigidSystem::prepare_mass_state() {
-    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+    // The smallest and largest inverse mass of any dynamic body, asleep or not (a body woken later in
+    // the step counts too), per worker and then over the workers: min and max are exact, so the same on
+    // any worker count. compute_support_levels reads them.
+    const std::size_t workers = std::size_t(region_.workers());
+    if (inv_mass_range_.size() < workers) inv_mass_range_.resize(workers);
+    for (std::size_t k = 0; k < workers; ++k) inv_mass_range_[k] = {std::numeric_limits<Real>::infinity(), Real(0)};
+    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int worker) {
+        std::pair<Real, Real>& range = inv_mass_range_[std::size_t(worker)];
         for (std::size_t s = std::size_t(begin); s < std::size_t(end); ++s) {
+            if (slots_.alive(s) && type_[s] == BodyType::Dynamic) {
+                range.first = std::min(range.first, body_inv_mass_[s]);
+                range.second = std::max(range.second, body_inv_mass_[s]);
+            }
             if (!(slots_.alive(s) && type_[s] == BodyType::Dynamic && awake_[s])) {
                 // Static, kinematic and sleeping bodies are immovable in this step's solve.
                 state_.inv_mass[s] = 0;
@@ -36,6 +48,11 @@ void RigidSystem::prepare_mass_state() {
             state_.inv_inertia_world[s] = r * inv_inertia_local_[s] * r.transpose();
         }
     });
+    dynamic_inv_mass_ = {std::numeric_limits<Real>::infinity(), Real(0)};
+    for (std::size_t k = 0; k < workers; ++k) {
+        dynamic_inv_mass_.first = std::min(dynamic_inv_mass_.first, inv_mass_range_[k].first);
+        dynamic_inv_mass_.second = std::max(dynamic_inv_mass_.second, inv_mass_range_[k].second);
+    }
 }
 
 namespace {

@@ -5,10 +5,12 @@
 // list; BodyId's generation detects stale handles.
 #pragma once
 
+#include <algorithm>
 #include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/core/dynamic_tree.hpp"
@@ -311,6 +313,10 @@ public:
     /// they carried). The rest are pairs of sleeping islands, kept untouched until they wake: a world at
     /// rest costs no manifold work (Box2D v3 keeps them in its sleeping solver sets).
     const std::vector<std::uint32_t>& active_contacts() const { return active_contacts_; }
+    /// Moves on whenever active_contacts() may name other manifolds than before, or the same indices
+    /// other pairs: while it stands, each listed index holds the same pair of bodies as at the last
+    /// change (a solver may keep its colouring; Box2D v3 keeps colours while contacts persist).
+    std::uint64_t active_contacts_revision() const { return active_revision_; }
     /// For solvers (accumulated impulses) and coupling layers.
     std::vector<ContactManifold>& mutable_contacts() { return contacts_; }
     /// Runs the broad and narrow phase now (solvers that detect more than once per step call it).
@@ -460,10 +466,21 @@ private:
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
     std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
     std::vector<Aabb> detect_box_;             ///< per slot: the moving body's box this step (refit)
+    std::vector<std::uint8_t> detect_moves_;   ///< per slot: its box left its fat box (re-inserted)
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
     /// Per slot: contacts between the body and an immovable one (0 for those; breadth first), or empty
     /// when no contact needs them this step (compute_support_levels).
     ContactLevels support_level_;
+    /// Smallest and largest inverse mass of the dynamic bodies as this step began (prepare_mass_state),
+    /// and per worker while it is found.
+    std::pair<Real, Real> dynamic_inv_mass_{0, 0};
+    std::vector<std::pair<Real, Real>> inv_mass_range_;
+    /// A body's mass changed between steps: the range takes it in until the next step finds it anew.
+    void widen_inv_mass_range(Real w) {
+        if (!(w > 0)) return;
+        dynamic_inv_mass_.first = std::min(dynamic_inv_mass_.first, w);
+        dynamic_inv_mass_.second = std::max(dynamic_inv_mass_.second, w);
+    }
     PreSolveFn pre_solve_;
     /// Manifolds the pre-solve callback disabled this step: index into contacts_ and its point count,
     /// given back (impulses cleared) when the next detection starts, so the contact cache sees them whole.
@@ -471,6 +488,12 @@ private:
     void restore_disabled();
     void apply_pre_solve();
     std::vector<std::uint32_t> active_contacts_;
+    std::vector<std::uint32_t> last_active_contacts_;  ///< the list before, to compare with
+    std::uint64_t active_revision_ = 0;
+    /// Pass 4 put some pair's manifolds at other indices of contacts_ since the list was last made.
+    bool layout_moved_ = true;
+    /// No pair of this step's detection sleeps (pass 1): the active list is every manifold.
+    bool all_pairs_awake_ = false;
     /// Per candidate pair of this step's detection: its cached manifolds (last step's, still in contacts_
     /// until pass 4 moves them), whether it sleeps, the slot it wakes (or kNoSlot), and where its
     /// manifolds went in detect_out_. Kept between steps: while the pair list stands, last step's offset

@@ -23,6 +23,9 @@ public:
     /// `displacement` (the predicted motion of the coming step) escaped its fat box; the new fat box is
     /// that swept box, fattened by `margin` and extended by `displacement` once more.
     bool move(std::int32_t proxy, const Aabb& box, const Vec3& displacement, Real margin);
+    /// Whether move() with these arguments would re-insert the proxy (its swept box left its fat box).
+    /// Only reads the tree: callers test their proxies on several threads and move the few on one.
+    bool would_move(std::int32_t proxy, const Aabb& box, const Vec3& displacement) const;
 
     const Aabb& fat_box(std::int32_t proxy) const { return nodes_[proxy].box; }
     std::uint32_t user_data(std::int32_t proxy) const { return nodes_[proxy].user_data; }
@@ -49,6 +52,8 @@ public:
     bool validate() const;
 
 private:
+    /// `box` extended along `displacement` (the motion of the coming step).
+    static Aabb swept_box(const Aabb& box, const Vec3& displacement);
     struct Node {
         Aabb box;
         std::uint32_t user_data = 0;

@@ -12,17 +12,23 @@ namespace sinew {
 
 namespace {
 
-constexpr int kBlockBits = 20;
-constexpr std::uint64_t kBlockMask = (std::uint64_t(1) << kBlockBits) - 1;
-constexpr std::uint32_t kSeqMask = (1u << 24) - 1;
+// A range's claim word: [stage sequence : 32][blocks : 16][next block : 16] (task_system.hpp).
+constexpr std::uint64_t kField = 0xFFFF;
+constexpr int kMaxBlocks = 8 * kMaxWorkers;  // a stage's blocks (publish), so a range's fit 16 bits
+static_assert(kMaxBlocks <= int(kField), "a range's block count fits its field");
 
-std::uint32_t seq_of(std::uint64_t c) { return std::uint32_t(c >> (2 * kBlockBits)); }
-int blocks_of(std::uint64_t c) { return int((c >> kBlockBits) & kBlockMask); }
-int next_of(std::uint64_t c) { return int(c & kBlockMask); }
-/// A range's claim word for stage `seq`: `blocks` blocks, none claimed yet.
-std::uint64_t claim_word(std::uint32_t seq, int blocks) {
-    return (std::uint64_t(seq) << (2 * kBlockBits)) | (std::uint64_t(blocks) << kBlockBits);
+std::uint32_t seq_of(std::uint64_t c) { return std::uint32_t(c >> 32); }
+int blocks_of(std::uint64_t c) { return int((c >> 16) & kField); }
+int next_of(std::uint64_t c) { return int(c & kField); }
+std::uint64_t claim_word(std::uint32_t seq, int blocks, int next) {
+    return (std::uint64_t(seq) << 32) | (std::uint64_t(blocks) << 16) | std::uint64_t(next);
 }
+std::uint64_t stage_word(std::uint32_t seq, int blocks) { return (std::uint64_t(seq) << 32) | std::uint32_t(blocks); }
+/// Whether sequence a comes after b. Sequences wrap at 2^32; a helper is at most the stages of one
+/// region behind (far fewer than 2^31).
+bool later(std::uint32_t a, std::uint32_t b) { return std::int32_t(a - b) > 0; }
+/// Range r's first block when `blocks` blocks are cut among `workers` ranges.
+int range_start(int blocks, int r, int workers) { return int(std::int64_t(blocks) * r / workers); }
 
 /// One wait in a spin loop: a pause instruction for a while, then giving the core away, so helpers
 /// spinning on more workers than cores (or under a sanitizer) do not starve the thread they wait for.
@@ -49,8 +55,8 @@ void ParallelRegion::open(const TaskSystem* tasks) {
     owner_ = std::this_thread::get_id();
     exit_.store(false, std::memory_order_relaxed);
     // The current stage, exhausted: a helper that starts now waits for the first real one.
-    for (int r = 0; r < workers_; ++r) ranges_[r].claim.store(claim_word(seq_, 0), std::memory_order_relaxed);
-    stage_.store(seq_, std::memory_order_release);
+    for (int r = 0; r < workers_; ++r) ranges_[r].claim.store(claim_word(seq_, 0, 0), std::memory_order_relaxed);
+    stage_.store(stage_word(seq_, 0), std::memory_order_release);
     for (int k = 1; k < workers_; ++k) helpers_[k] = Helper{this, k, nullptr};
     try {
         for (int k = 1; k < workers_; ++k)
@@ -71,16 +77,14 @@ void ParallelRegion::close() {
 
 void ParallelRegion::run_block(int begin, int end, int worker) noexcept {
     // Once a block has thrown, the stage's other blocks are only counted: the caller rethrows.
-    if (!failed_.load(std::memory_order_acquire)) {
-        try {
-            thunk_(ctx_, begin, end, worker);
-        } catch (...) {
-            std::lock_guard<std::mutex> lock(error_mutex_);
-            if (!error_) error_ = std::current_exception();
-            failed_.store(true, std::memory_order_release);
-        }
+    if (failed_.load(std::memory_order_acquire)) return;
+    try {
+        thunk_(ctx_, begin, end, worker);
+    } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex_);
+        if (!error_) error_ = std::current_exception();
+        failed_.store(true, std::memory_order_release);
     }
-    done_.fetch_add(1, std::memory_order_release);
 }
 
 void ParallelRegion::helper_entry(int, int, int, void* ctx) {
@@ -88,13 +92,16 @@ void ParallelRegion::helper_entry(int, int, int, void* ctx) {
     ParallelRegion& r = *h.region;
     // Run inline inside enqueue (or by finish on the calling thread): the calling thread does the work.
     if (std::this_thread::get_id() == r.owner_) return;
-    std::uint32_t last = kSeqMask + 1;  // no stage: a helper arriving mid-stage joins it
+    std::uint64_t last = ~std::uint64_t(0);  // no stage: a helper arriving mid-stage joins it
     Backoff backoff;
     while (!r.exit_.load(std::memory_order_acquire)) {
-        const std::uint32_t seq = r.stage_.load(std::memory_order_acquire);
-        if (seq != last) {
-            r.work_on(seq, h.worker);
-            last = seq;
+        const std::uint64_t stage = r.stage_.load(std::memory_order_acquire);
+        if (stage != last) {
+            // The blocks this helper ran, counted once: one shared atomic per helper and stage, not per
+            // block (the calling thread waits for the count).
+            const int ran = r.work_on(seq_of(stage), int(stage & 0xFFFFFFFFu), h.worker);
+            if (ran > 0) r.done_.fetch_add(ran, std::memory_order_release);
+            last = stage;
             backoff = Backoff{};
         } else {
             backoff.wait();
@@ -102,28 +109,50 @@ void ParallelRegion::helper_entry(int, int, int, void* ctx) {
     }
 }
 
-void ParallelRegion::drain(Range& r, std::uint32_t seq, int worker) {
-    std::uint64_t c = r.claim.load(std::memory_order_acquire);
+int ParallelRegion::claim(int r, std::uint32_t seq, int blocks) {
+    std::atomic<std::uint64_t>& word = ranges_[r].claim;
+    std::uint64_t c = word.load(std::memory_order_acquire);
     for (;;) {
-        if (seq_of(c) != seq || next_of(c) >= blocks_of(c)) return;
-        if (!r.claim.compare_exchange_weak(c, c + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
-        // The descriptor is the claimed stage's: the calling thread rewrites it only after this block is
-        // counted done.
-        const int begin = (r.first + next_of(c)) * block_, end = std::min(count_, begin + block_);
-        run_block(begin, end, worker);
-        c = r.claim.load(std::memory_order_acquire);
+        std::uint64_t next;
+        if (seq_of(c) == seq) {
+            if (next_of(c) >= blocks_of(c)) return -1;
+            next = c + 1;
+        } else if (later(seq_of(c), seq)) {
+            return -1;  // this worker slept through the stage: it is over
+        } else {
+            // The stage's first claim in this range: set it up with block 0 taken. The stage cannot have
+            // ended, since this range's blocks were never claimed in it.
+            const int first = range_start(blocks, r, workers_), count = range_start(blocks, r + 1, workers_) - first;
+            if (count == 0) return -1;
+            next = claim_word(seq, count, 1);
+        }
+        if (word.compare_exchange_weak(c, next, std::memory_order_acq_rel, std::memory_order_acquire))
+            return range_start(blocks, r, workers_) + next_of(next) - 1;
     }
 }
 
-void ParallelRegion::work_on(std::uint32_t seq, int worker) {
-    for (int k = 0; k < workers_; ++k) drain(ranges_[(worker + k) % workers_], seq, worker);
+int ParallelRegion::drain(int r, std::uint32_t seq, int blocks, int worker) {
+    int ran = 0;
+    for (int b; (b = claim(r, seq, blocks)) >= 0; ++ran) {
+        // The descriptor is the claimed stage's: the calling thread rewrites it only after this block is
+        // counted done.
+        const int begin = b * block_, end = std::min(count_, begin + block_);
+        run_block(begin, end, worker);
+    }
+    return ran;
+}
+
+int ParallelRegion::work_on(std::uint32_t seq, int blocks, int worker) {
+    int ran = 0;
+    for (int k = 0; k < workers_; ++k) ran += drain((worker + k) % workers_, seq, blocks, worker);
+    return ran;
 }
 
 void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
     assert(std::this_thread::get_id() == owner_ && "stages are published by the thread that called run()");
     // Eight blocks per worker at most balance uneven items (the stage's last block is what the other
     // workers wait for) without many claims (rigid/soft_step_solver.cpp, kBatchesPerBlock, has figures).
-    const int most = std::min<int>(8 * workers_, int(kBlockMask));
+    const int most = 8 * workers_;
     int blocks = std::min((count + std::max(min_block, 1) - 1) / std::max(min_block, 1), most);
     blocks = std::max(blocks, 1);
     block_ = (count + blocks - 1) / blocks;
@@ -132,17 +161,12 @@ void ParallelRegion::publish(int count, int min_block, Thunk thunk, void* ctx) {
     thunk_ = thunk;
     ctx_ = ctx;
     done_.store(0, std::memory_order_relaxed);
-    seq_ = (seq_ + 1) & kSeqMask;
+    ++seq_;
     failed_.store(false, std::memory_order_relaxed);
-    for (int r = 0; r < workers_; ++r) {
-        const int first = int(std::int64_t(blocks) * r / workers_), next = int(std::int64_t(blocks) * (r + 1) / workers_);
-        ranges_[r].first = first;
-        ranges_[r].claim.store(claim_word(seq_, next - first), std::memory_order_release);
-    }
-    stage_.store(seq_, std::memory_order_release);
-    work_on(seq_, 0);
+    stage_.store(stage_word(seq_, blocks), std::memory_order_release);
+    const int mine = work_on(seq_, blocks, 0);
     Backoff backoff;
-    while (done_.load(std::memory_order_acquire) < blocks) backoff.wait();
+    while (done_.load(std::memory_order_acquire) + mine < blocks) backoff.wait();
     if (failed_.load(std::memory_order_acquire)) {
         std::exception_ptr e;
         {

@@ -105,20 +105,26 @@ private:
     // A stage's blocks are cut into one contiguous range per worker. Each worker starts on its own range
     // and then helps with the others' (Box2D v3 does the same): the same worker tends to get the same
     // contact batches, and so the same bodies, stage after stage, and they stay in its core's cache.
-    // A range's claim word: [stage sequence : 24][blocks : 20][next block : 20]. Packing the stage and the
+    // A range's claim word: [stage sequence : 32][blocks : 16][next block : 16]. Packing the stage and the
     // block count with the cursor lets a helper that slept through a stage change never claim a block of
-    // the wrong stage, nor read the descriptor of a stage it did not claim in.
+    // the wrong stage, nor read the descriptor of a stage it did not claim in. The calling thread does not
+    // write the ranges when it publishes: whoever claims first in a range for a stage sets it up (the
+    // stage word gives the sequence and block count, so every worker cuts the same ranges), and a
+    // worker's own range stays in its own cache from stage to stage.
     struct alignas(64) Range {
         std::atomic<std::uint64_t> claim{0};
-        int first = 0;  // the range's first block
     };
     void open(const TaskSystem* tasks);
     void close();
     void publish(int count, int min_block, Thunk thunk, void* ctx);
-    /// Claims and runs blocks of stage `seq`, its own range first, until none is left or the stage moved on.
-    void work_on(std::uint32_t seq, int worker);
-    /// Claims and runs blocks of range r while it has some in stage `seq`.
-    void drain(Range& r, std::uint32_t seq, int worker);
+    /// Claims and runs blocks of stage `seq` (of `blocks` blocks), its own range first, until none is
+    /// left or the stage moved on; returns how many it ran.
+    int work_on(std::uint32_t seq, int blocks, int worker);
+    /// Claims and runs blocks of range r while it has some in stage `seq`; returns how many it ran.
+    int drain(int r, std::uint32_t seq, int blocks, int worker);
+    /// Claims the next block of range r in stage `seq`, setting the range up if this is the stage's first
+    /// claim in it; returns the block's index in the stage, or -1.
+    int claim(int r, std::uint32_t seq, int blocks);
     static void helper_entry(int begin, int end, int worker, void* ctx);
 
     struct Helper {
@@ -131,19 +137,23 @@ private:
     void run_block(int begin, int end, int worker) noexcept;
 
     Range ranges_[kMaxWorkers];
-    // Written by every block's end: kept off the line the spinning helpers read.
+    // Blocks the helpers finished in the current stage, each helper adding its count once it finds no
+    // block left: kept off the line the spinning helpers read.
     alignas(64) std::atomic<int> done_{0};
-    alignas(64) std::atomic<std::uint32_t> stage_{0};  // the sequence of the stage published last
-    std::atomic<bool> exit_{false};
-    std::atomic<bool> failed_{false};  // a block of the current stage threw (error_ holds it)
-    std::mutex error_mutex_;
-    std::exception_ptr error_;
+    // The stage descriptor, on one cache line: a helper that sees a new stage word gets the rest with it.
+    // The word is [sequence : 32][blocks : 32]; the other fields are written before it is stored and read
+    // by a helper only once it holds a block of that stage.
+    alignas(64) std::atomic<std::uint64_t> stage_{0};
     Thunk thunk_ = nullptr;
     void* ctx_ = nullptr;
     int count_ = 0;
     int block_ = 1;
-    std::uint32_t seq_ = 0;
+    std::uint32_t seq_ = 0;  // the sequence of the stage published last
     int workers_ = 1;
+    alignas(64) std::atomic<bool> exit_{false};
+    std::atomic<bool> failed_{false};  // a block of the current stage threw (error_ holds it)
+    std::mutex error_mutex_;
+    std::exception_ptr error_;
     bool running_ = false;  // inside run(), on the thread that called it
     const TaskSystem* tasks_ = nullptr;
     std::thread::id owner_;
