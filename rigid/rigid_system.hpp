@@ -506,6 +506,9 @@ private:
         std::uint32_t stored;  ///< how many it has there after pass 4
         int worker;
         bool asleep;
+        /// Its manifolds stay in contacts_ where the last step left them (asleep, or carried in place
+        /// by the body-pair cache); pass 4 moves them only if the pairs before changed their counts.
+        bool kept;
         bool left_asleep;      ///< a sleeping pair this step, out of the active contacts from the next one
         bool was_left_asleep;  ///< left_asleep as the last step ended (the active list reads this)
     };
@@ -516,8 +519,8 @@ private:
     void refresh_active_contacts() {
         if (active_stale_) list_active_contacts();
     }
-    /// Pass 4: the manifolds of sleeping pairs moved to their new offsets within contacts_.
-    void move_sleeping_manifolds();
+    /// Pass 4: the manifolds of kept pairs (PairWork::kept) moved to their new offsets within contacts_.
+    void move_kept_manifolds();
     static constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;
     std::vector<PairWork> pair_work_;
     std::vector<std::vector<ContactManifold>> detect_out_;  ///< per worker
