@@ -90,9 +90,14 @@ void RigidSystem::detect_in_region(Real h) {
     // about 10 us a step on this thread when each was tested here.
     detect_box_.resize(slots);
     detect_moves_.resize(slots);
+    if (detect_placed_capacity_ < slots) {
+        detect_placed_capacity_ = std::max(slots, 2 * detect_placed_capacity_);
+        detect_placed_ = std::make_unique<std::atomic<std::uint8_t>[]>(detect_placed_capacity_);
+    }
     region_.for_each(int(slots), 256, [&](int begin, int end, int) {
         for (int i = begin; i < end; ++i) {
             const std::uint32_t s = std::uint32_t(i);
+            detect_placed_[s].store(0, std::memory_order_relaxed);  // pass 1 marks the bodies to place
             detect_moves_[s] = 0;
             if (!slots_.alive(s) || type_[s] == BodyType::Static || !awake_[s]) continue;
             detect_box_[s] = shape_[s].bounds(origin_transform(s));
@@ -122,30 +127,63 @@ void RigidSystem::detect_in_region(Real h) {
         std::sort(pair_keys_.begin(), pair_keys_.end());
     }
 
-    // Pass 1, serial and cheap: where each pair's manifolds from the last step are, whether it sleeps,
-    // and the bodies to place. Sleep is read as the step found it: a pair that wakes a sleeping island
+    // Pass 1, cheap (on the workers while the pair list stands): where each pair's manifolds from the
+    // last step are, whether it sleeps, and the bodies to place. Sleep is read as the step found it: a pair that wakes a sleeping island
     // does so after the narrow phase (pass 4), so no pair's outcome depends on the order the pairs are
     // handled in, and the passes below can run on any number of workers. contacts_ still holds the last
-    // step's manifolds until pass 4: the narrow phase reads its cache there.
+    // step's manifolds until pass 4: the narrow phase reads its cache there (or carries them in place).
     detect_xf_.resize(slots);
     detect_rot_.resize(slots);
-    detect_placed_.assign(slots, 0);
     const std::size_t np = pair_keys_.size();
     // While the pair list stands, each pair's manifolds are where the last step put them; else a merge
     // join of the two lists, both sorted by key, finds them (reading every manifold's key: 50,000 boxes
     // asleep spent about 1.5 ms a step on it).
     const bool same_pairs = layout_was_valid && !pairs_rebuilt && pair_work_.size() == np;
     pair_work_.resize(np);
-    std::size_t prev_i = 0;
-    std::size_t sleeping_pairs = 0;
-    for (std::size_t i = 0; i < np; ++i) {
+    // The rest of pass 1, pair by pair; returns whether the pair sleeps.
+    auto classify = [&](std::size_t i) {
         const std::uint64_t key = pair_keys_[i];
         const std::uint32_t a = std::uint32_t(key >> 32), b = std::uint32_t(key & 0xFFFFFFFFu);
         PairWork& w = pair_work_[i];
-        if (same_pairs) {
-            w.prev_begin = w.offset;
-            w.prev_end = w.offset + w.stored;
-        } else {
+        w.was_left_asleep = w.left_asleep;
+        const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
+        const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
+        w.asleep = asleep_a && asleep_b;
+        if (!w.asleep) w.left_asleep = false;  // as list_active_contacts would find it
+        w.wakes = asleep_a != asleep_b ? (asleep_a ? a : b) : kNoSlot;
+        w.count = 0;
+        w.kept = w.asleep;
+        // Each body's detection pose once per step (a body is in several pairs), with its rotation as a
+        // matrix: carrying a cached manifold's points costs two rotations per point. Only bodies in a
+        // tested pair: 50,176 boxes asleep on the ground spent 0.7 ms a step placing every body.
+        if (!w.asleep) {
+            detect_placed_[a].store(1, std::memory_order_relaxed);
+            detect_placed_[b].store(1, std::memory_order_relaxed);
+        }
+        return w.asleep;
+    };
+    std::size_t sleeping_pairs = 0;
+    if (same_pairs) {
+        // On the workers: each pair writes its own PairWork, and the placed flags only ever become 1
+        // (pyramid-40 spent about 10 us a step here on the calling thread).
+        const std::size_t workers = std::size_t(region_.workers());
+        sleeping_per_worker_.assign(workers, 0);
+        region_.for_each(int(np), 256, [&](int begin, int end, int worker) {
+            std::size_t sleeping = 0;
+            for (int i = begin; i < end; ++i) {
+                PairWork& w = pair_work_[std::size_t(i)];
+                w.prev_begin = w.offset;
+                w.prev_end = w.offset + w.stored;
+                sleeping += classify(std::size_t(i)) ? 1 : 0;
+            }
+            sleeping_per_worker_[std::size_t(worker)] += sleeping;
+        });
+        for (const std::size_t n : sleeping_per_worker_) sleeping_pairs += n;
+    } else {
+        std::size_t prev_i = 0;
+        for (std::size_t i = 0; i < np; ++i) {
+            const std::uint64_t key = pair_keys_[i];
+            PairWork& w = pair_work_[i];
             while (prev_i < contacts_.size() && pair_key(contacts_[prev_i].body_a, contacts_[prev_i].body_b) < key) ++prev_i;
             std::size_t prev_end = prev_i;
             while (prev_end < contacts_.size() && pair_key(contacts_[prev_end].body_a, contacts_[prev_end].body_b) == key)
@@ -153,20 +191,8 @@ void RigidSystem::detect_in_region(Real h) {
             w.prev_begin = std::uint32_t(prev_i);
             w.prev_end = std::uint32_t(prev_end);
             w.left_asleep = false;  // not known: it goes to the solver once more
+            sleeping_pairs += classify(i) ? 1 : 0;
         }
-        w.was_left_asleep = w.left_asleep;
-        const bool asleep_a = type_[a] == BodyType::Static || !awake_[a];
-        const bool asleep_b = type_[b] == BodyType::Static || !awake_[b];
-        w.asleep = asleep_a && asleep_b;
-        if (!w.asleep) w.left_asleep = false;  // as list_active_contacts would find it
-        sleeping_pairs += w.asleep ? 1 : 0;
-        w.wakes = asleep_a != asleep_b ? (asleep_a ? a : b) : kNoSlot;
-        w.count = 0;
-        w.kept = w.asleep;
-        // Each body's detection pose once per step (a body is in several pairs), with its rotation as a
-        // matrix: carrying a cached manifold's points costs two rotations per point. Only bodies in a
-        // tested pair: 50,176 boxes asleep on the ground spent 0.7 ms a step placing every body.
-        if (!w.asleep) detect_placed_[a] = detect_placed_[b] = 1;
     }
     all_pairs_awake_ = sleeping_pairs == 0;
     {
@@ -177,7 +203,7 @@ void RigidSystem::detect_in_region(Real h) {
         // Pass 2: place the bodies.
         region_.for_each(int(slots), 512, [&](int begin, int end, int) {
             for (int s = begin; s < end; ++s) {
-                if (!detect_placed_[std::size_t(s)]) continue;
+                if (!detect_placed_[std::size_t(s)].load(std::memory_order_relaxed)) continue;
                 detect_xf_[std::size_t(s)] = detection_transform(std::uint32_t(s), h);
                 detect_rot_[std::size_t(s)] = detect_xf_[std::size_t(s)].q.toRotationMatrix();
             }

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <stdexcept>
@@ -464,7 +465,11 @@ private:
     std::vector<std::pair<std::int32_t, std::int32_t>> candidate_pairs_;
     std::vector<Transform> detect_xf_;  ///< per slot: where DetectCollisions places the body this step
     std::vector<Mat3> detect_rot_;      ///< its rotation as a matrix
-    std::vector<std::uint8_t> detect_placed_;  ///< per slot: detect_xf_ is this step's
+    /// Per slot: detect_xf_ is this step's (set by pass 1's pairs, on any worker; atomics of one byte,
+    /// since several pairs mark one body).
+    std::unique_ptr<std::atomic<std::uint8_t>[]> detect_placed_;
+    std::size_t detect_placed_capacity_ = 0;
+    std::vector<std::size_t> sleeping_per_worker_;  ///< pass 1: sleeping pairs found by each worker
     std::vector<Aabb> detect_box_;             ///< per slot: the moving body's box this step (refit)
     std::vector<std::uint8_t> detect_moves_;   ///< per slot: its box left its fat box (re-inserted)
     std::vector<ContactManifold> contacts_;       ///< this step's, sorted by (body pair, sub_key)
