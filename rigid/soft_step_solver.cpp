@@ -119,7 +119,7 @@ struct Kernels {
 /// blocks per worker, 0.884-0.889 ms with one and eight (16 blocks: 0.907-0.909).
 constexpr int kBatchesPerBlock = 1;
 /// Bodies a worker claims at a time in the per-body loops.
-constexpr int kBodiesPerBlock = 256;
+constexpr int kBodiesPerBlock = 64;
 /// Manifolds from which the solve runs on the workers (below it, on the calling thread alone).
 constexpr std::size_t kParallelManifolds = 128;
 /// Manifolds per block of islands in the blocked solve (SoftStepSolver::plan_blocks): a block's batches
@@ -232,6 +232,8 @@ private:
         });
     }
     void store_impulses(RigidSystem& sys) const;
+    /// worker_order_ for this step's colours and the region's workers.
+    void order_batches_by_worker();
     BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
     void bodies_to_state(RigidSystem::State& st) const;
     // The last sub-step is finished in finish_step(), after the pipeline's coupling hooks.
@@ -283,6 +285,13 @@ private:
     std::vector<std::uint32_t> moved_in_solve_;  ///< the solve's moving_, when finish_step found them anew
     bool moving_only_ = false;
     bool any_restitution_ = false;  ///< a manifold of this step's colours has restitution > 0
+    /// The batches in the order the once-per-step batch stages (the fill, the impulses' store) take them:
+    /// the first worker's share of every colour, then the second's, and so on. A colour stage gives
+    /// each worker its share of the colour (ParallelRegion cuts a stage into one range per worker), so
+    /// a worker fills and stores the batches it solves and their data stays in its core's cache. In
+    /// batch order the first worker filled colours 0-2 and the second 3-5 on pyramid-40, and each
+    /// colour stage then read half its batches from the other core.
+    std::vector<std::uint32_t> worker_order_;
 
     // Colours and blocks kept from step to step. The colouring is a function of the active manifolds,
     // the bodies each joins and which of them move; the blocks add the moving bodies. While those stand
@@ -488,10 +497,13 @@ void SoftStepSolver::prepare(RigidSystem& sys, Real h_sub) {
     }
     colour_start_[ConstraintColouring::kOverflow] = next;
     colour_start_[ConstraintColouring::kOverflow + 1] = std::uint32_t(batches);
-    // Each batch is filled from its colour's list on its own (batches write only themselves).
+    order_batches_by_worker();
+    // Each batch is filled from its colour's list on its own (batches write only themselves), in
+    // worker_order_: each worker fills the batches it will solve.
     region_->for_each(int(batches), kBatchesPerBlock, [&](int begin, int end, int worker) {
-        int col = 0;
-        for (int i = begin; i < end; ++i) {
+        for (int k = begin; k < end; ++k) {
+            const int i = int(worker_order_[std::size_t(k)]);
+            int col = 0;
             while (std::uint32_t(i) >= colour_start_[col + 1]) ++col;
             const auto& list = by_colour_[col];
             if (col == ConstraintColouring::kOverflow) {
@@ -527,11 +539,25 @@ void SoftStepSolver::per_colour(F&& f) {
     if (contacts_.size() > first) f(contacts_.data() + first, contacts_.size() - first, &scratch_[0].body);
 }
 
+void SoftStepSolver::order_batches_by_worker() {
+    const int workers = region_->workers();
+    worker_order_.clear();
+    for (int w = 0; w < workers; ++w)
+        for (int col = 0; col <= ConstraintColouring::kOverflow; ++col) {
+            const std::uint32_t first = colour_start_[col], count = colour_start_[col + 1] - first;
+            const std::uint32_t begin = first + std::uint32_t(std::uint64_t(count) * std::uint64_t(w) / std::uint64_t(workers));
+            const std::uint32_t end = first + std::uint32_t(std::uint64_t(count) * std::uint64_t(w + 1) / std::uint64_t(workers));
+            for (std::uint32_t i = begin; i < end; ++i) worker_order_.push_back(i);
+        }
+}
+
 void SoftStepSolver::store_impulses(RigidSystem& sys) const {
     std::vector<ContactManifold>& dst = sys.mutable_contacts();
+    // In worker_order_ when solved colour by colour: each worker stores what it solved.
+    const bool ordered = !blocked_ && worker_order_.size() == contacts_.size();
     region_->for_each(int(contacts_.size()), 4 * kBatchesPerBlock, [&](int begin, int end, int) {
-    for (int i = begin; i < end; ++i) {
-        const WideContact& c = contacts_[std::size_t(i)];
+    for (int k = begin; k < end; ++k) {
+        const WideContact& c = contacts_[ordered ? std::size_t(worker_order_[std::size_t(k)]) : std::size_t(k)];
         for (int l = 0; l < kWideLanes; ++l) {
             if (c.manifold[l] == kNoManifold) continue;
             Manifold& m = dst[c.manifold[l]].manifold;
