@@ -219,10 +219,11 @@ void RigidSystem::detect_in_region(Real h) {
         // Then, after the region, the islands the awake pairs touch are woken.
         // A pair whose manifolds land elsewhere, or in another number, changes which pair an index of
         // contacts_ holds: the active list's revision moves on (list_active_contacts).
-        std::size_t total = 0;
+        std::size_t total = 0, to_copy = 0;
         bool moved = !same_pairs;
         for (PairWork& w : pair_work_) {
             const std::uint32_t stored = w.kept ? w.prev_end - w.prev_begin : w.count;
+            to_copy += w.kept ? 0 : w.count;
             moved = moved || w.offset != total || w.stored != stored;
             w.offset = std::uint32_t(total);
             w.stored = stored;
@@ -231,7 +232,8 @@ void RigidSystem::detect_in_region(Real h) {
         layout_moved_ = layout_moved_ || moved;
         if (total > contacts_.size()) contacts_.resize(total);
         move_kept_manifolds();
-        region_.for_each(int(np), 64, [&](int begin, int end, int) {
+        // No stage when every pair was kept (a stack at rest).
+        if (to_copy > 0) region_.for_each(int(np), 64, [&](int begin, int end, int) {
             for (int i = begin; i < end; ++i) {
                 const PairWork& w = pair_work_[std::size_t(i)];
                 if (w.kept) continue;

@@ -156,26 +156,23 @@ void RigidSystem::integrate_positions_in_region(Real h) {
     }
     solver_->finish_step(*this, h);
     for (ConstraintRows* rows : row_sources_) rows->finish(*this, h);
-    if (settings_.gyroscopic) {
-        // Position corrections since (split impulses' pseudo velocities, joint projection) turned some
-        // bodies further. That turn is not motion: the angular velocity turns with the body, keeping its
-        // body-frame value and so its kinetic energy. Kept as angular momentum instead, a ball-jointed loop
-        // of 1 m x 6 cm bars (inertia 140:1) under split impulses spun up about the bars' long axes to
-        // 830 rad/s within 10 s, its energy from -18 J to +327 J: each correction's small turn of a long
-        // axis moved part of the tumbling momentum onto it, where the small inertia makes it fast.
-        region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
-            for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s) {
-                if (state_.inv_mass[s] == 0 || w_frame_[s].coeffs() == state_.q[s].coeffs()) continue;
+    // Position corrections since (split impulses' pseudo velocities, joint projection) turned some
+    // bodies further. That turn is not motion: the angular velocity turns with the body, keeping its
+    // body-frame value and so its kinetic energy. Kept as angular momentum instead, a ball-jointed loop
+    // of 1 m x 6 cm bars (inertia 140:1) under split impulses spun up about the bars' long axes to
+    // 830 rad/s within 10 s, its energy from -18 J to +327 J: each correction's small turn of a long
+    // axis moved part of the tumbling momentum onto it, where the small inertia makes it fast.
+    // Then every body is checked, in the same stage, and the rare unsound one put back on this thread.
+    const bool gyroscopic = settings_.gyroscopic;
+    std::atomic<bool> unsound{false};
+    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
+        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s) {
+            if (gyroscopic && state_.inv_mass[s] != 0 && w_frame_[s].coeffs() != state_.q[s].coeffs()) {
                 state_.w[s] = (state_.q[s] * w_frame_[s].conjugate()) * state_.w[s];
                 w_frame_[s] = state_.q[s];
             }
-        });
-    }
-    // Every body checked on the workers; the rare unsound one put back on this thread.
-    std::atomic<bool> unsound{false};
-    region_.for_each(int(slots_.size()), 512, [&](int begin, int end, int) {
-        for (std::uint32_t s = std::uint32_t(begin); s < std::uint32_t(end); ++s)
             if (!state_is_sound(s)) unsound.store(true, std::memory_order_relaxed);
+        }
     });
     if (unsound.load(std::memory_order_relaxed)) contain_non_finite();
 }

@@ -231,7 +231,9 @@ private:
             kernels_.restitution(c, n, bodies_.data(), scratch, threshold);
         });
     }
-    void store_impulses(RigidSystem& sys) const;
+    /// Each moving body's state from its row and each batch's impulses into its manifolds, one stage.
+    void store_results(RigidSystem& sys);
+    static void store_batch(const WideContact& c, std::vector<ContactManifold>& dst);
     /// worker_order_ for this step's colours and the region's workers.
     void order_batches_by_worker();
     BodyVelocities body_view() { return BodyVelocities::of(bodies_, &WideBody::v, &WideBody::w); }
@@ -551,25 +553,48 @@ void SoftStepSolver::order_batches_by_worker() {
         }
 }
 
-void SoftStepSolver::store_impulses(RigidSystem& sys) const {
-    std::vector<ContactManifold>& dst = sys.mutable_contacts();
-    // In worker_order_ when solved colour by colour: each worker stores what it solved.
-    const bool ordered = !blocked_ && worker_order_.size() == contacts_.size();
-    region_->for_each(int(contacts_.size()), 4 * kBatchesPerBlock, [&](int begin, int end, int) {
-    for (int k = begin; k < end; ++k) {
-        const WideContact& c = contacts_[ordered ? std::size_t(worker_order_[std::size_t(k)]) : std::size_t(k)];
-        for (int l = 0; l < kWideLanes; ++l) {
-            if (c.manifold[l] == kNoManifold) continue;
-            Manifold& m = dst[c.manifold[l]].manifold;
-            for (int k = 0; k < c.count[l]; ++k) {
-                m.points[k].normal_impulse = c.p[k].normal_impulse.lane(l);
-                m.points[k].total_normal_impulse = c.p[k].total_normal_impulse.lane(l);
-                m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0].lane(l);
-                m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1].lane(l);
-            }
+void SoftStepSolver::store_batch(const WideContact& c, std::vector<ContactManifold>& dst) {
+    for (int l = 0; l < kWideLanes; ++l) {
+        if (c.manifold[l] == kNoManifold) continue;
+        Manifold& m = dst[c.manifold[l]].manifold;
+        for (int k = 0; k < c.count[l]; ++k) {
+            m.points[k].normal_impulse = c.p[k].normal_impulse.lane(l);
+            m.points[k].total_normal_impulse = c.p[k].total_normal_impulse.lane(l);
+            m.points[k].tangent_impulse[0] = c.p[k].tangent_impulse[0].lane(l);
+            m.points[k].tangent_impulse[1] = c.p[k].tangent_impulse[1].lane(l);
         }
     }
+}
+
+void SoftStepSolver::store_results(RigidSystem& sys) {
+    // Two loops with nothing in common, in one stage (one wait for the workers, not two): each moving
+    // body's state from its row, and each batch's impulses into its manifolds. Items come in worker
+    // slices, a slice being a worker's share of the bodies and then of the batches in worker_order_
+    // (when solved colour by colour), so each worker stores what it solved.
+    RigidSystem::State& st = sys.state();
+    std::vector<ContactManifold>& dst = sys.mutable_contacts();
+    const bool ordered = !blocked_ && worker_order_.size() == contacts_.size();
+    const std::size_t bodies = moving_only_ ? moving_.size() : st.v.size(), batches = contacts_.size();
+    const std::size_t slices = std::size_t(region_->workers());
+    auto share = [slices](std::size_t n, std::size_t w) { return n * w / slices; };
+    region_->for_each(int(bodies + batches), kBodiesPerBlock, [&](int begin, int end, int) {
+        std::size_t w = 0;
+        while (w + 1 < slices && share(bodies, w + 1) + share(batches, w + 1) <= std::size_t(begin)) ++w;
+        for (std::size_t k = std::size_t(begin); k < std::size_t(end); ++k) {
+            while (w + 1 < slices && share(bodies, w + 1) + share(batches, w + 1) <= k) ++w;
+            const std::size_t o = k - share(bodies, w) - share(batches, w);
+            const std::size_t in_slice = share(bodies, w + 1) - share(bodies, w);
+            if (o < in_slice) {
+                const std::size_t i = share(bodies, w) + o;
+                const std::uint32_t s = moving_only_ ? moving_[i] : std::uint32_t(i);
+                if (st.inv_mass[s] != 0) state_from_row(st, s, bodies_[s]);
+            } else {
+                const std::size_t i = share(batches, w) + (o - in_slice);
+                store_batch(contacts_[ordered ? std::size_t(worker_order_[i]) : i], dst);
+            }
+        }
     });
+    moving_only_ = false;
 }
 
 template <class F>
@@ -856,11 +881,7 @@ void SoftStepSolver::finish_in_region(RigidSystem& sys) {
     integrate_and_relax(sys, true);
     // A restitution pass is a stage per colour: none when no contact of the step bounces.
     if (any_restitution_) restitution(sys.settings().restitution_threshold);
-    for_each_body(st.v.size(), [&](std::size_t s) {
-        if (st.inv_mass[s] != 0) state_from_row(st, std::uint32_t(s), bodies_[s]);
-    });
-    moving_only_ = false;
-    store_impulses(sys);
+    store_results(sys);
 }
 
 void SoftStepSolver::find_moving(const RigidSystem::State& st) {
