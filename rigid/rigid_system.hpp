@@ -382,8 +382,9 @@ private:
     void prepare_mass_state();
     void detect_collisions(Real h);
     bool can_reuse(const Transform& cached, const Transform& now) const;
-    /// Pass 3 of detect_collisions for pair i: its manifolds, cached or fresh, appended to the worker's
-    /// list (pair_work_[i] records where).
+    /// Pass 3 of detect_collisions for pair i: its cached manifolds carried to this step's poses where
+    /// they are in contacts_ (the pair is then kept), or the narrow phase's appended to the worker's list
+    /// (pair_work_[i] records where).
     void detect_pair(std::size_t i, Real h, Real margin, int worker);
     /// DetectCollisions inside its parallel region: refit, pairs, passes 1-4 (rigid_contacts.cpp).
     void detect_in_region(Real h);
@@ -480,7 +481,8 @@ private:
     /// and per worker while it is found.
     std::pair<Real, Real> dynamic_inv_mass_{0, 0};
     std::vector<std::pair<Real, Real>> inv_mass_range_;
-    /// A body's mass changed between steps: the range takes it in until the next step finds it anew.
+    /// A body's mass changed (between steps, or within one after prepare_mass_state): the range takes it
+    /// in until the next step finds it anew.
     void widen_inv_mass_range(Real w) {
         if (!(w > 0)) return;
         dynamic_inv_mass_.first = std::min(dynamic_inv_mass_.first, w);
@@ -499,9 +501,9 @@ private:
     bool layout_moved_ = true;
     /// No pair of this step's detection sleeps (pass 1): the active list is every manifold.
     bool all_pairs_awake_ = false;
-    /// Per candidate pair of this step's detection: its cached manifolds (last step's, still in contacts_
-    /// until pass 4 moves them), whether it sleeps, the slot it wakes (or kNoSlot), and where its
-    /// manifolds went in detect_out_. Kept between steps: while the pair list stands, last step's offset
+    /// Per candidate pair of this step's detection: its cached manifolds (last step's, at their old
+    /// place in contacts_ until pass 4), whether it sleeps, the slot it wakes (or kNoSlot), and where its
+    /// fresh manifolds went in detect_out_ (first and worker; unused for a kept pair). Kept between steps: while the pair list stands, last step's offset
     /// and count say where a pair's manifolds are, with no search.
     struct PairWork {
         std::uint32_t prev_begin, prev_end;

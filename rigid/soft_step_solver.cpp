@@ -290,7 +290,8 @@ private:
     /// The batches in the order the once-per-step batch stages (the fill, the impulses' store) take them:
     /// the first worker's share of every colour, then the second's, and so on. A colour stage gives
     /// each worker its share of the colour (ParallelRegion cuts a stage into one range per worker), so
-    /// a worker fills and stores the batches it solves and their data stays in its core's cache. In
+    /// a worker mostly fills and stores the batches it solves (ranges round to whole blocks, and steal)
+    /// and their data stays in its core's cache. In
     /// batch order the first worker filled colours 0-2 and the second 3-5 on pyramid-40, and each
     /// colour stage then read half its batches from the other core.
     std::vector<std::uint32_t> worker_order_;
@@ -401,7 +402,6 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
             c.friction.set_lane(l, cm.friction);
             c.restitution.set_lane(l, cm.restitution);
             c.any_restitution = c.any_restitution || cm.restitution > 0;
-            in.any_restitution = in.any_restitution || cm.restitution > 0;
             // Contacts against immovable bodies are twice as stiff since only one body gives way (Box2D v3).
             s = (wa == 0 || wb == 0) ? static_soft : soft;
             set_lane(in.xa, l, st.x[a]);
@@ -433,6 +433,7 @@ void SoftStepSolver::fill_batch(WideContact& c, const std::uint32_t* manifolds, 
         c.mass_scale.set_lane(l, s.mass_scale);
         c.impulse_scale.set_lane(l, s.impulse_scale);
     }
+    in.any_restitution = in.any_restitution || c.any_restitution;
     for (int k = 0; k < c.max_count; ++k) {
         WidePoint& p = c.p[k];
         for (int l = 0; l < kWideLanes; ++l) {
@@ -570,7 +571,8 @@ void SoftStepSolver::store_results(RigidSystem& sys) {
     // Two loops with nothing in common, in one stage (one wait for the workers, not two): each moving
     // body's state from its row, and each batch's impulses into its manifolds. Items come in worker
     // slices, a slice being a worker's share of the bodies and then of the batches in worker_order_
-    // (when solved colour by colour), so each worker stores what it solved.
+    // (when solved colour by colour), so each worker mostly stores what it solved: the stage's ranges
+    // round to whole blocks, and this region may have another worker count than the solve's.
     RigidSystem::State& st = sys.state();
     std::vector<ContactManifold>& dst = sys.mutable_contacts();
     const bool ordered = !blocked_ && worker_order_.size() == contacts_.size();
@@ -578,8 +580,7 @@ void SoftStepSolver::store_results(RigidSystem& sys) {
     const std::size_t slices = std::size_t(region_->workers());
     auto share = [slices](std::size_t n, std::size_t w) { return n * w / slices; };
     region_->for_each(int(bodies + batches), kBodiesPerBlock, [&](int begin, int end, int) {
-        std::size_t w = 0;
-        while (w + 1 < slices && share(bodies, w + 1) + share(batches, w + 1) <= std::size_t(begin)) ++w;
+        std::size_t w = 0;  // the slice of item k
         for (std::size_t k = std::size_t(begin); k < std::size_t(end); ++k) {
             while (w + 1 < slices && share(bodies, w + 1) + share(batches, w + 1) <= k) ++w;
             const std::size_t o = k - share(bodies, w) - share(batches, w);

@@ -120,8 +120,9 @@ int ParallelRegion::claim(int r, std::uint32_t seq, int blocks) {
         } else if (later(seq_of(c), seq)) {
             return -1;  // this worker slept through the stage: it is over
         } else {
-            // The stage's first claim in this range: set it up with block 0 taken. The stage cannot have
-            // ended, since this range's blocks were never claimed in it.
+            // The stage's first claim in this range: set it up with block 0 taken. If the range has blocks
+            // in the stage, the stage cannot have ended, since none of them was claimed; if it has none,
+            // there is nothing to claim.
             const int first = range_start(blocks, r, workers_), count = range_start(blocks, r + 1, workers_) - first;
             if (count == 0) return -1;
             next = claim_word(seq, count, 1);

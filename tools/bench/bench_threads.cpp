@@ -141,8 +141,7 @@ int cmd_bench_threads(const std::vector<std::string>& args) {
                     if (!worlds[k]->faults().empty()) here[k].finite = false;
                     else ++here[k].steps;
                 }
-                // Whole chunks only (the last may be short): the first, with the scene's first contacts, is
-                // rarely the fastest.
+                // Whole chunks only (the last may be short).
                 if (taken == kChunk && (best[k] == 0 || chunk / taken < best[k])) best[k] = chunk / taken;
             }
         }
