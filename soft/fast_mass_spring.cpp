@@ -201,15 +201,57 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
         c.link_ends[2 * j + 1] = b.links[j].b;
         c.link_stiffness[j] = b.links[j].stiffness;
     }
+    // The links by row (both ends) and the links to a pinned particle, for the gathers of the step.
+    c.row_link_start.assign(std::size_t(nf) + 1, 0);
+    c.pinned_links.clear();
+    for (std::size_t j = 0; j < m; ++j) {
+        const int ra = c.row[b.links[j].a], rb = c.row[b.links[j].b];
+        if (ra >= 0) ++c.row_link_start[std::size_t(ra) + 1];
+        if (rb >= 0) ++c.row_link_start[std::size_t(rb) + 1];
+        if ((ra >= 0) != (rb >= 0)) c.pinned_links.push_back(std::uint32_t(j));
+    }
+    for (int r = 0; r < nf; ++r) c.row_link_start[std::size_t(r) + 1] += c.row_link_start[std::size_t(r)];
+    c.row_link.resize(std::size_t(c.row_link_start[std::size_t(nf)]));
+    c.row_link_k.resize(c.row_link.size());
+    {
+        std::vector<int> fill(c.row_link_start.begin(), c.row_link_start.end() - 1);
+        for (std::size_t j = 0; j < m; ++j) {
+            const int ra = c.row[b.links[j].a], rb = c.row[b.links[j].b];
+            const double k = b.links[j].stiffness;
+            if (ra >= 0) c.row_link[std::size_t(fill[std::size_t(ra)])] = std::uint32_t(j), c.row_link_k[std::size_t(fill[std::size_t(ra)]++)] = k;
+            if (rb >= 0) c.row_link[std::size_t(fill[std::size_t(rb)])] = std::uint32_t(j), c.row_link_k[std::size_t(fill[std::size_t(rb)]++)] = -k;
+        }
+    }
+    c.schedule.clear();
     if (c.dir.size() != m) c.dir.assign(m, Vec3::Zero());
     if (c.force.size() != n) c.force.assign(n, Vec3::Zero());
     c.factored = true;
     ++c.factorizations;
 }
 
-// Solves L D Lᵀ x = b in place, b holding 3 values per row (soft/ldlt_solve.hpp).
-void solve_in_place(const FastMassSpringCache& c, std::vector<double>& b) {
-    c.factor.solve_in_place<3>(b.data());
+// The workers of a large body's solve: the soft system's region when its run() has helpers and the
+// system has enough rows to repay a stage's hand-off (about 1 µs; a 32 x 32 cloth's whole solve takes 34).
+constexpr std::size_t kParallelRows = 2048;
+ParallelRegion* parallel_region(const SoftBody& b, const FastMassSpringCache& c) {
+    return b.region && b.region->workers() > 1 && c.factor.rows() >= kParallelRows ? b.region : nullptr;
+}
+
+// fn(begin, end) over [0, count) on the region's workers, or on this thread without one.
+template <class Fn>
+void split(ParallelRegion* region, std::size_t count, Fn&& fn) {
+    if (region) region->for_each(int(count), 256, [&](int begin, int end, int) { fn(std::size_t(begin), std::size_t(end)); });
+    else fn(0, count);
+}
+
+// Solves L D Lᵀ x = b in place, b holding 3 values per row (soft/ldlt_solve.hpp), split among the workers
+// along the factor's elimination tree when there are some (soft/ldlt_schedule.hpp: bit-identical).
+void solve_in_place(FastMassSpringCache& c, std::vector<double>& b, ParallelRegion* region) {
+    if (!region) {
+        c.factor.solve_in_place<3>(b.data());
+        return;
+    }
+    if (c.schedule.parts != region->workers()) c.schedule.build(c.factor, region->workers());
+    solve_in_place_parallel<3>(c.factor, c.schedule, *region, b.data());
 }
 
 // Contacts inside the global step (issue 14: seed 002 treats collisions as constraints of the
@@ -293,7 +335,7 @@ void add_contact_forces(FastMassSpringCache& c) {
 
 // One conjugate-gradient solve over the active rows (with or without the tangent rows; rows left out keep
 // their forces), from the residuals at X = c.rhs. Returns the products it took.
-int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, bool tangents) {
+int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, bool tangents, ParallelRegion* region) {
     const std::size_t m = c.contacts.size();
     const auto in_solve = [&](std::size_t k) { return c.cg_active[k] && (tangents || !c.contacts[k].tangent); };
     // Residual r = offset - d · X over the rows in the solve (0 elsewhere: they stay out of it).
@@ -311,7 +353,7 @@ int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, boo
         std::fill(c.cg_u.begin(), c.cg_u.end(), 0.0);
         for (std::size_t k = 0; k < m; ++k)
             if (c.cg_p[k] != 0) row_add(c.contacts[k], c.cg_p[k], c.cg_u);
-        solve_in_place(c, c.cg_u);
+        solve_in_place(c, c.cg_u, region);
         double pq = 0;
         for (std::size_t k = 0; k < m; ++k) {
             c.cg_q[k] = c.cg_p[k] == 0 ? 0.0 : row_dot(c.contacts[k], c.cg_u);
@@ -356,7 +398,7 @@ int contact_cg(FastMassSpringCache& c, double tolerance, int max_iterations, boo
 //
 // Each pass stops when every active row is within `tolerance` (m) or after `max_iterations` products;
 // with friction there are two passes and one more product between them.
-int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) {
+int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations, ParallelRegion* region) {
     const std::size_t m = c.contacts.size();
     c.cg_r.resize(m);
     c.cg_p.resize(m);
@@ -376,7 +418,7 @@ int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) 
         normal_active = row_dot(ct, c.rhs) - ct.offset < 0 || ct.force != 0;
         c.cg_active[k] = normal_active;
     }
-    int it = contact_cg(c, tolerance, max_iterations, true);
+    int it = contact_cg(c, tolerance, max_iterations, true, region);
     if (!any_tangent) return it;
     // The Coulomb cone: |f_t| <= mu max(f_n, 0).
     bool clamped = false;
@@ -400,9 +442,9 @@ int hold_contacts(FastMassSpringCache& c, double tolerance, int max_iterations) 
         clamped = true;
     }
     if (!clamped) return it;
-    solve_in_place(c, c.cg_u);
+    solve_in_place(c, c.cg_u, region);
     for (std::size_t i = 0; i < c.rhs.size(); ++i) c.rhs[i] += c.cg_u[i];
-    return it + 1 + contact_cg(c, tolerance, max_iterations, false);
+    return it + 1 + contact_cg(c, tolerance, max_iterations, false, region);
 }
 
 }  // namespace
@@ -427,29 +469,33 @@ void predict_fast_mass_spring(SoftBody& b, Real h) {
     // y, the first iterate, and the inertial part of the right-hand side, M' y / h².
     const Real keep = Real(1) / (Real(1) + h * b.def.drag);
     const double mass_scale = (1.0 + double(h) * double(b.def.drag)) / (double(h) * double(h));
-    for (std::size_t i = 0; i < n; ++i) {
-        p.x_prev[i] = p.x[i];
-        const int r = c.row[i];
-        if (r < 0) {
-            p.v[i].setZero();
-            continue;
+    split(parallel_region(b, c), n, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) {
+            p.x_prev[i] = p.x[i];
+            const int r = c.row[i];
+            if (r < 0) {
+                p.v[i].setZero();
+                continue;
+            }
+            Vec3 fext = p.f[i];
+            if (pressure) fext += c.force[i];
+            const Vec3 y = p.x[i] + (h * keep) * (p.v[i] + h * (b.gravity + p.inv_mass[i] * fext));
+            p.x[i] += (h * keep) * p.v[i];
+            const double s = double(p.mass[i]) * mass_scale;
+            for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(r) + k] = s * double(y[k]);
         }
-        Vec3 fext = p.f[i];
-        if (pressure) fext += c.force[i];
-        const Vec3 y = p.x[i] + (h * keep) * (p.v[i] + h * (b.gravity + p.inv_mass[i] * fext));
-        p.x[i] += (h * keep) * p.v[i];
-        const double s = double(p.mass[i]) * mass_scale;
-        for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(r) + k] = s * double(y[k]);
-    }
+    });
 }
 
 void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     FastMassSpringCache& c = *b.fms_cache;  // made by predict_fast_mass_spring
     Particles& p = b.p;
     const std::size_t n = p.size(), m = b.links.size();
+    ParallelRegion* const region = parallel_region(b, c);
     // The pinned ends' share of the right-hand side, here rather than in the prediction: attached
     // particles are placed on their rigid points again just before this stage.
-    for (const Link& l : b.links) {
+    for (const std::uint32_t j : c.pinned_links) {
+        const Link& l = b.links[j];
         const int ra = c.row[l.a], rb = c.row[l.b];
         if (ra >= 0 && rb < 0)
             for (int k = 0; k < 3; ++k) c.inertia[3 * std::size_t(ra) + k] += double(l.stiffness) * double(p.x[l.b][k]);
@@ -491,39 +537,46 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     c.contact_iterations = 0;
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
-        for (std::size_t j = 0; j < m; ++j) {
-            const Link& l = b.links[j];
-            const Vec3 d = p.x[l.a] - p.x[l.b];
-            const Real len = d.norm();
-            if (len >= kMinLinkLength)
-                c.dir[j] = (l.rest / len) * d;
-            else if (c.dir[j].squaredNorm() == 0)
-                c.dir[j] = Vec3(l.rest, 0, 0);  // no direction yet: any one is optimal
-        }
-        // Global step: (M'/h² + L) x = M' y/h² + J p (+ pinned terms), three coordinates at once.
-        std::copy(c.inertia.begin(), c.inertia.end(), c.rhs.begin());
-        for (std::size_t j = 0; j < m; ++j) {
-            const Link& l = b.links[j];
-            const int ra = c.row[l.a], rb = c.row[l.b];
-            const double k = l.stiffness;
-            const Vec3& d = c.dir[j];
-            if (ra >= 0)
-                for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(ra) + a] += k * double(d[a]);
-            if (rb >= 0)
-                for (int a = 0; a < 3; ++a) c.rhs[3 * std::size_t(rb) + a] -= k * double(d[a]);
-        }
+        split(region, m, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t j = begin; j < end; ++j) {
+                const Link& l = b.links[j];
+                const Vec3 d = p.x[l.a] - p.x[l.b];
+                const Real len = d.norm();
+                if (len >= kMinLinkLength)
+                    c.dir[j] = (l.rest / len) * d;
+                else if (c.dir[j].squaredNorm() == 0)
+                    c.dir[j] = Vec3(l.rest, 0, 0);  // no direction yet: any one is optimal
+            }
+        });
+        // Global step: (M'/h² + L) x = M' y/h² + J p (+ pinned terms), three coordinates at once. J p is
+        // gathered row by row, each row's links ascending: the sums of a scatter over the links in order.
+        split(region, c.factor.rows(), [&](std::size_t begin, std::size_t end) {
+            for (std::size_t r = begin; r < end; ++r) {
+                double a0 = c.inertia[3 * r], a1 = c.inertia[3 * r + 1], a2 = c.inertia[3 * r + 2];
+                // a + (-k) d is a - k d exactly: the signed stiffness gives the scatter's sums.
+                for (int q = c.row_link_start[r]; q < c.row_link_start[r + 1]; ++q) {
+                    const double k = c.row_link_k[std::size_t(q)];
+                    const Vec3& d = c.dir[c.row_link[std::size_t(q)]];
+                    a0 += k * double(d[0]), a1 += k * double(d[1]), a2 += k * double(d[2]);
+                }
+                c.rhs[3 * r] = a0, c.rhs[3 * r + 1] = a1, c.rhs[3 * r + 2] = a2;
+            }
+        });
         if (b.fem) add_tet_projections(b, c);
         add_contact_forces(c);
-        solve_in_place(c, c.rhs);
+        solve_in_place(c, c.rhs, region);
         if (!c.contacts.empty())
-            c.contact_iterations += hold_contacts(c, kContactTolerance * double(b.def.thickness), kContactIterations);
-        for (std::size_t i = 0; i < n; ++i) {
-            const int r = c.row[i];
-            if (r >= 0) {
-                const double* xr = &c.rhs[3 * std::size_t(r)];
-                p.x[i] = Vec3(Real(xr[0]), Real(xr[1]), Real(xr[2]));
+            c.contact_iterations +=
+                hold_contacts(c, kContactTolerance * double(b.def.thickness), kContactIterations, region);
+        split(region, n, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) {
+                const int r = c.row[i];
+                if (r >= 0) {
+                    const double* xr = &c.rhs[3 * std::size_t(r)];
+                    p.x[i] = Vec3(Real(xr[0]), Real(xr[1]), Real(xr[2]));
+                }
             }
-        }
+        });
     }
 
     // The impulse each plane held its particle with, for the contact pass (friction budget, restitution,
@@ -551,8 +604,10 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     }
 
     const Real inv_h = Real(1) / h;
-    for (std::size_t i = 0; i < n; ++i)
-        if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
+    split(region, n, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i)
+            if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
+    });
 }
 
 void shift_fast_mass_spring_prediction(SoftBody& b, std::uint32_t i, const Vec3& dv, Real h) {

@@ -77,27 +77,41 @@ struct LdltArrays {
         substitute<Stride, true>(col_start.data(), col_row.data(), col_value.data(), n, x);  // Lᵀ x = z
     }
 
+    /// Row i of the forward solve L y = b: y_i = b_i - Σ_{j<i} L_ij y_j (the y_j of L's row i must be done).
+    template <int Stride>
+    void forward_row(int i, double* x) const {
+        substitute_one<Stride>(row_start.data(), row_col.data(), row_value.data(), i, x);
+    }
+    /// Row i of the backward solve Lᵀ x = z: x_i = z_i - Σ_{j>i} L_ji x_j (the x_j of L's column i must be
+    /// done).
+    template <int Stride>
+    void backward_row(int i, double* x) const {
+        substitute_one<Stride>(col_start.data(), col_row.data(), col_value.data(), i, x);
+    }
+
 private:
     // The sums are spelled out per right-hand side: written as loops over a local array, GCC -O2 kept the
     // accumulators in memory and the solve took 128 µs instead of 34 µs on the factor above.
-    // Row i of L y = b (forward, rows ascending, `index` the columns of L's row i) or column i of
-    // Lᵀ x = z (backward, descending, `index` the rows of L's column i): x_i -= Σ value · x_index.
+    // Row i of L y = b (forward, `index` the columns of L's row i) or column i of Lᵀ x = z (backward,
+    // `index` the rows of L's column i): x_i -= Σ value · x_index.
+    template <int Stride>
+    static void substitute_one(const int* start, const int* index, const double* value, int i, double* x) {
+        double* xi = x + Stride * i;
+        double a0 = xi[0], a1 = 0, a2 = 0;
+        if constexpr (Stride == 3) a1 = xi[1], a2 = xi[2];
+        for (int p = start[i]; p < start[i + 1]; ++p) {
+            const double* xj = x + Stride * index[p];
+            const double v = value[p];
+            a0 -= v * xj[0];
+            if constexpr (Stride == 3) a1 -= v * xj[1], a2 -= v * xj[2];
+        }
+        xi[0] = a0;
+        if constexpr (Stride == 3) xi[1] = a1, xi[2] = a2;
+    }
+    // Rows ascending (forward) or descending (backward).
     template <int Stride, bool Backward>
     static void substitute(const int* start, const int* index, const double* value, int n, double* x) {
-        for (int k = 0; k < n; ++k) {
-            const int i = Backward ? n - 1 - k : k;
-            double* xi = x + Stride * i;
-            double a0 = xi[0], a1 = 0, a2 = 0;
-            if constexpr (Stride == 3) a1 = xi[1], a2 = xi[2];
-            for (int p = start[i]; p < start[i + 1]; ++p) {
-                const double* xj = x + Stride * index[p];
-                const double v = value[p];
-                a0 -= v * xj[0];
-                if constexpr (Stride == 3) a1 -= v * xj[1], a2 -= v * xj[2];
-            }
-            xi[0] = a0;
-            if constexpr (Stride == 3) xi[1] = a1, xi[2] = a2;
-        }
+        for (int k = 0; k < n; ++k) substitute_one<Stride>(start, index, value, Backward ? n - 1 - k : k, x);
     }
 };
 

@@ -341,12 +341,22 @@ void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
     // The bodies one after the other; a large body's method splits its own loops among the workers
-    // (SoftBody::region: today the FEM stiffness product). Helpers only when such a body is large: waking
-    // them for a 64x64 cloth, whose methods split nothing, made its step 0.85x as fast.
-    std::size_t largest = 0;
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (slots_.alive(s) && bodies_[s].fem) largest = std::max(largest, bodies_[s].p.size());
-    region_.run(largest >= kParallelParticles ? tasks_ : nullptr, [&] { integrate_velocities_in_region(h); });
+    // (SoftBody::region).
+    region_.run(tasks_for_large_bodies(), [&] { integrate_velocities_in_region(h); });
+}
+
+const TaskSystem* SoftSystem::tasks_for_large_bodies() const {
+    // Helpers only when a body whose method splits its loops is large: waking them for a 64x64 cloth
+    // under a method that splits nothing (Verlet's relaxation, implicit Euler's CG) made its step 0.85x
+    // as fast.
+    if (!tasks_ || !tasks_->parallel()) return nullptr;
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
+        if (!slots_.alive(s)) continue;
+        const SoftBody& b = bodies_[s];
+        const bool splits = b.fem || (b.def.method == SoftMethod::FastMassSpring && !b.solved_by_rows);
+        if (splits && b.p.size() >= kParallelParticles) return tasks_;
+    }
+    return nullptr;
 }
 
 void SoftSystem::integrate_velocities_in_region(Real h) {
@@ -447,6 +457,22 @@ void SoftSystem::solve_velocities(Real h) {
     } else {
         for (const SoftContactPass::Entry& e : contact_entries_) e.body->soft_planes.clear();
     }
+    region_.run(tasks_for_large_bodies(), [&] { solve_bodies_in_region(h); });
+    // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
+    soft_contacts_.run(contact_entries_, h);
+    // A particle the pass moved is not held by implicit Euler's filter in the next solve (record_contacts):
+    // the pass pushes it after the solve, into a plane the filter holds only in velocity.
+    for (const SoftContactPass::Entry& e : contact_entries_) {
+        SoftBody& b = *e.body;
+        if (!e.stepping || b.def.method != SoftMethod::ImplicitEuler || b.fem || b.hold_contacts ||
+            b.soft_touched.size() != b.p.size() || b.contact_normal.size() != b.p.size())
+            continue;
+        for (std::size_t i = 0; i < b.p.size(); ++i)
+            if (b.soft_touched[i]) b.contact_normal[i].setZero();
+    }
+}
+
+void SoftSystem::solve_bodies_in_region(Real h) {
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || !bodies_[s].stepping) continue;
         SoftBody& b = bodies_[s];
@@ -462,18 +488,6 @@ void SoftSystem::solve_velocities(Real h) {
         record_contacts(b, first_contact);
         p.v_solved = p.v;
         p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
-    }
-    // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
-    soft_contacts_.run(contact_entries_, h);
-    // A particle the pass moved is not held by implicit Euler's filter in the next solve (record_contacts):
-    // the pass pushes it after the solve, into a plane the filter holds only in velocity.
-    for (const SoftContactPass::Entry& e : contact_entries_) {
-        SoftBody& b = *e.body;
-        if (!e.stepping || b.def.method != SoftMethod::ImplicitEuler || b.fem || b.hold_contacts ||
-            b.soft_touched.size() != b.p.size() || b.contact_normal.size() != b.p.size())
-            continue;
-        for (std::size_t i = 0; i < b.p.size(); ++i)
-            if (b.soft_touched[i]) b.contact_normal[i].setZero();
     }
 }
 

@@ -140,11 +140,16 @@ private:
     void integrate_velocities_in_region(Real h);
     /// Particles from which a body's method runs its large loops on the workers.
     static constexpr std::size_t kParallelParticles = 2048;
+    /// The workers for a stage: the task system when a live body whose method splits its loops (FEM,
+    /// fast mass-spring) has at least kParallelParticles particles, else none.
+    const TaskSystem* tasks_for_large_bodies() const;
     void begin_step(SoftBody& b, Real h);
     void detect_collisions(Real h);
     /// DetectCollisions: sleeping bodies a moving soft body reaches wake and take this step's forces.
     void wake_touched_by_soft_bodies(Real h);
     void solve_velocities(Real h);
+    /// The SolveVelocities part of each stepping body: its method's solve and its contact pass.
+    void solve_bodies_in_region(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
     /// IntegratePositions: puts body `s` back where the (sub-)step found it if its particles are not

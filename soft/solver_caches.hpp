@@ -15,6 +15,7 @@
 #include "engine/core/math.hpp"
 #include "soft/block_cg.hpp"
 #include "soft/fem_rest_factor.hpp"
+#include "soft/ldlt_schedule.hpp"
 #include "soft/ldlt_solve.hpp"
 
 namespace sinew {
@@ -104,6 +105,14 @@ struct FastMassSpringCache {
     std::vector<int> row;         ///< particle -> row of the system, -1 for pinned particles
     SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle
     LdltArrays factor;            ///< its factorization L D Lᵀ (empty: no free particle)
+    LdltSchedule schedule;        ///< the factor's solves split among workers (built on first parallel use)
+    /// Per row, the links that end at its particle, ascending, and each one's stiffness signed by the
+    /// end (+k at end a, -k at end b): the right-hand side's J p gathered row by row, in the order a pass
+    /// over the links adds it.
+    std::vector<int> row_link_start;
+    std::vector<std::uint32_t> row_link;
+    std::vector<double> row_link_k;
+    std::vector<std::uint32_t> pinned_links;  ///< the links with one end free and one pinned, ascending
     bool factored = false;
     int factorizations = 0;       ///< how many times it was (re)factored (tests check the reuse)
 

@@ -16,11 +16,17 @@
 #include <catch2/catch.hpp>
 
 #include <Eigen/Dense>
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
+#include "engine/core/thread_pool.hpp"
+
 #include "soft/soft_body.hpp"
+#include "soft/ldlt_schedule.hpp"
 #include "soft/soft_integrators.hpp"
 #include "soft/solver_caches.hpp"
 
@@ -536,5 +542,66 @@ TEST_CASE("implicit Euler stays stable on a crumpled and compressed cloth at eve
         // Backward Euler dissipates: the energy falls at every step (measured: never rises). 1e-4 relative
         // allows float rounding once it has fallen to 1e-5 J (positions resolved to 3e-8 m).
         CHECK(worst_rise <= 1e-4);
+    }
+}
+
+// Issue 18, item 2: fast mass-spring's triangular solves split along the factor's elimination tree
+// (soft/ldlt_schedule.hpp). On a 48 x 48 grid's matrix in its AMD order (a 2-D mesh like a cloth's), each
+// schedule's parts and top rows cover every row once, and the split solve gives the one-thread solve's
+// values bit for bit on any worker and part count, which solve the system to round-off.
+TEST_CASE("an LDLT solve split along the elimination tree gives the one-thread solve, bit for bit", "[soft][ldlt][threads]") {
+    using Sparse = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+    const int side = 48, n = side * side;
+    std::vector<Eigen::Triplet<double, int>> t;
+    for (int j = 0; j < side; ++j)
+        for (int i = 0; i < side; ++i) {
+            const int k = j * side + i;
+            t.emplace_back(k, k, 1.0);  // a mass term
+            const auto couple = [&](int a, int b, double w) {
+                t.emplace_back(a, a, w), t.emplace_back(b, b, w), t.emplace_back(a, b, -w), t.emplace_back(b, a, -w);
+            };
+            if (i + 1 < side) couple(k, k + 1, 100.0);
+            if (j + 1 < side) couple(k, k + side, 100.0);
+            if (i + 1 < side && j + 1 < side) couple(k, k + side + 1, 50.0), couple(k + 1, k + side, 50.0);
+        }
+    Sparse natural(n, n);
+    natural.setFromTriplets(t.begin(), t.end());
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm;
+    Eigen::AMDOrdering<int>()(natural, perm);
+    Sparse a;
+    a = natural.twistedBy(perm.inverse());  // new row k holds old row perm[k]
+    const Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt(a);
+    REQUIRE(ldlt.info() == Eigen::Success);
+    LdltArrays factor;
+    factor.assign(ldlt.matrixL().nestedExpression(), ldlt.vectorD());
+
+    std::vector<double> b(3 * std::size_t(n));
+    for (std::size_t i = 0; i < b.size(); ++i) b[i] = std::sin(0.37 * double(i)) + 0.1 * double(i % 7);
+    std::vector<double> serial = b;
+    factor.solve_in_place<3>(serial.data());
+    double worst_residual = 0;
+    for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXd x(n), rhs(n);
+        for (int i = 0; i < n; ++i) x[i] = serial[3 * std::size_t(i) + c], rhs[i] = b[3 * std::size_t(i) + c];
+        worst_residual = std::max(worst_residual, (a.selfadjointView<Eigen::Lower>() * x - rhs).cwiseAbs().maxCoeff());
+    }
+    CHECK(worst_residual < 1e-9);  // |b| ~ 1, condition number ~ 1e4: round-off is ~1e-12
+
+    for (int parts : {2, 3, 5}) {
+        LdltSchedule schedule;
+        schedule.build(factor, parts);
+        std::vector<int> seen(std::size_t(n), 0);
+        for (const int i : schedule.part_rows) ++seen[std::size_t(i)];
+        for (const int i : schedule.top_rows) ++seen[std::size_t(i)];
+        CHECK(std::count(seen.begin(), seen.end(), 1) == n);
+        CHECK(schedule.top_share < 0.5);  // the tree is split: most rows are in the parts
+        for (int workers : {1, 2, 3}) {
+            INFO(parts << " parts, " << workers << " workers");
+            ThreadPool pool(workers);
+            ParallelRegion region;
+            std::vector<double> x = b;
+            region.run(&pool.task_system(), [&] { solve_in_place_parallel<3>(factor, schedule, region, x.data()); });
+            CHECK(std::memcmp(x.data(), serial.data(), x.size() * sizeof(double)) == 0);
+        }
     }
 }
