@@ -103,7 +103,7 @@ void OneWayCoupling::refresh_attachments() {
 void OneWayCoupling::refresh_colliders(Real h) {
     std::vector<Collider>& colliders = soft_.colliders();
     colliders.clear();
-    if (soft_.body_count() == 0) return;
+    if (soft_.body_count() == 0 || rigid_.body_count() == 0) return;
     mark_.resize(rigid_.slot_count(), 0);
     if (++stamp_ == 0) {
         std::fill(mark_.begin(), mark_.end(), 0);
@@ -120,9 +120,12 @@ void OneWayCoupling::refresh_colliders(Real h) {
         const Vec3 g = soft_.settings().gravity * body.def.gravity_scale;
         Real amax = g.norm();
         if (body.awake) {
-            for (const Vec3& v : body.p.v) vmax2 = std::max(vmax2, v.squaredNorm());
-            for (std::size_t i = 0; i < body.p.size(); ++i)
-                if (body.p.inv_mass[i] > 0) amax = std::max(amax, g.norm() + body.p.f[i].norm() * body.p.inv_mass[i]);
+            for (std::size_t i = 0; i < body.p.size(); ++i) {
+                vmax2 = std::max(vmax2, body.p.v[i].squaredNorm());
+                // Most particles carry no external force: no square root for them.
+                if (body.p.inv_mass[i] > 0 && body.p.f[i].squaredNorm() != 0)
+                    amax = std::max(amax, g.norm() + body.p.f[i].norm() * body.p.inv_mass[i]);
+            }
         }
         const Aabb reach = soft_.bounds(s).fattened(std::sqrt(vmax2) * h + amax * h * h);
         rigid_.query_bodies(reach, [&](std::uint32_t slot) {

@@ -2,6 +2,7 @@
 #include "soft/soft_system.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 
@@ -547,30 +548,44 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
 }
 
 void SoftSystem::integrate_positions(Real h) {
+    region_.run(tasks_for_large_bodies(), [&] { integrate_positions_in_region(h); });
+}
+
+void SoftSystem::integrate_positions_in_region(Real h) {
+    const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || !bodies_[s].stepping) continue;
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
-        // A velocity change made after the solve (a coupling layer's impulse) moves this step's positions,
-        // as it would have had it been part of the solve.
-        for (std::size_t i = 0; i < p.size(); ++i)
-            if (p.inv_mass[i] != 0) p.x_next[i] += h * (p.v[i] - p.v_solved[i]);
-        contain_non_finite(s, h);
+        const std::size_t n = p.size();
+        // One pass over the particles, split among the workers for a large body: a velocity change made
+        // after the solve (a coupling layer's impulse) moves this step's positions, as it would have had
+        // it been part of the solve; the first particle whose position is not finite or whose speed is
+        // beyond kBlowUpSpeed is found (the least index over the blocks: the same on any worker count);
+        // the step's external forces are cleared.
+        std::atomic<std::size_t> first_bad{n};
+        region_.for_each(int(n), 1024, [&](int begin, int end, int) {
+            std::size_t bad = n;
+            for (std::size_t i = std::size_t(begin); i < std::size_t(end); ++i) {
+                if (p.inv_mass[i] != 0) p.x_next[i] += h * (p.v[i] - p.v_solved[i]);
+                if (bad == n && (!p.x_next[i].allFinite() || !(p.v[i].squaredNorm() < fast))) bad = i;
+                p.f[i].setZero();
+            }
+            std::size_t seen = first_bad.load(std::memory_order_relaxed);
+            while (bad < seen && !first_bad.compare_exchange_weak(seen, bad, std::memory_order_relaxed)) {
+            }
+        });
+        contain_non_finite(s, h, first_bad.load(std::memory_order_relaxed));
         p.x.swap(p.x_next);
-        for (Vec3& f : p.f) f.setZero();
         b.stepping = false;
         update_sleep(b, h);
     }
 }
 
-void SoftSystem::contain_non_finite(std::uint32_t s, Real h) {
+void SoftSystem::contain_non_finite(std::uint32_t s, Real h, std::size_t bad) {
     SoftBody& b = bodies_[s];
     Particles& p = b.p;
-    std::size_t bad = p.size();
-    const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
-    for (std::size_t i = 0; i < p.size() && bad == p.size(); ++i)
-        if (!p.x_next[i].allFinite() || !(p.v[i].squaredNorm() < fast)) bad = i;
-    if (bad == p.size()) return;
+    if (bad >= p.size()) return;
     StepFault f;
     f.system = StepFault::System::Soft;
     f.index = s;

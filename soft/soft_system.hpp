@@ -152,9 +152,12 @@ private:
     void solve_bodies_in_region(Real h);
     void integrate_positions(Real h);
     void update_sleep(SoftBody& b, Real h);
-    /// IntegratePositions: puts body `s` back where the (sub-)step found it if its particles are not
-    /// finite or too fast; it then sits out the step's other sub-steps, so the step ends with it there.
-    void contain_non_finite(std::uint32_t s, Real h);
+    /// The IntegratePositions part of each stepping body.
+    void integrate_positions_in_region(Real h);
+    /// IntegratePositions: puts body `s` back where the (sub-)step found it when particle `bad` (its
+    /// first, if any: bad < its particle count) is not finite or too fast; it then sits out the step's
+    /// other sub-steps, so the step ends with it there.
+    void contain_non_finite(std::uint32_t s, Real h, std::size_t bad);
     /// Keeps the contacts the contact pass appended from `first` as the body's per-particle contact
     /// normals and collider speeds, for the next step's implicit solve.
     void record_contacts(SoftBody& b, std::size_t first);
