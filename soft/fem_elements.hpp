@@ -55,6 +55,14 @@ struct FemState {
     // The warped stiffness K' and the blocks of each element in it.
     BlockSparse3 stiffness;
     std::vector<std::uint32_t> element_blocks;  ///< per element its nodes_per_tet()² block indices in K'
+    /// The element loop on a region's workers (soft/fem_kernel.cpp, linear tets): the nodes cut into
+    /// contiguous parts, and per part the runs of elements that have a node in it. Built on first use.
+    struct ElementParts {
+        std::vector<std::uint32_t> node_start;  ///< parts + 1: part p owns nodes [node_start[p], node_start[p + 1])
+        std::vector<std::uint32_t> run_start;   ///< parts + 1 offsets into runs
+        std::vector<std::uint32_t> runs;        ///< (first, end) element ranges, ascending
+        int parts() const { return node_start.empty() ? 0 : int(node_start.size()) - 1; }
+    } element_parts;
 
     bool assembled = false;
     // Implicit Euler's product q += k_scale K' u + m_scale M u (set by the model's prepare step).

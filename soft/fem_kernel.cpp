@@ -13,6 +13,7 @@
 // time (soft/fem_quadratic.cpp).
 #include <Eigen/SVD>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "soft/fem_elements.hpp"
@@ -37,9 +38,10 @@ struct Batch {
     bool flat[L];              // det F <= 0
 };
 
-void gather(const FemState& s, const std::vector<Vec3>& x, std::size_t first, Batch& b) {
+// Elements [first, min(first + L, end)) into b's lanes (end: the elements' count by default).
+void gather(const FemState& s, const std::vector<Vec3>& x, std::size_t first, Batch& b, std::size_t end = ~std::size_t(0)) {
     b.first = first;
-    b.count = int(std::min<std::size_t>(L, s.size() - first));
+    b.count = int(std::min<std::size_t>(L, std::min(end, s.size()) - first));
     for (int l = 0; l < L; ++l) {
         Mat3 ds = Mat3::Identity(), di = Mat3::Identity();
         Real v = 0;
@@ -193,7 +195,8 @@ void qr_lanes(const FemState& s, Batch& b) {
 
 // f += the element forces: ε = sym(Rᵀ F) - I - ε_p, σ = 2 μ ε + λ tr(ε) I (+ β times the same of the
 // velocities' Rᵀ Ḟ, without the identity), H = -V R σ D_m⁻ᵀ; f_a += H's column a - 1, f_0 -= their sum.
-void force_lanes(const FemState& s, const Batch& b, const std::vector<Vec3>* v, Real beta, std::vector<Vec3>& f) {
+// H of each lane, H[3 i + j][l] (the forces of nodes 1-3 are its columns).
+void force_lanes(const FemState& s, const Batch& b, const std::vector<Vec3>* v, Real beta, Real (&H)[9][L]) {
     Real S[6][L];  // σ: xx yy zz xy xz yz
     const Real lambda = s.lambda, mu = s.mu;
     Real P[6][L];
@@ -247,7 +250,6 @@ void force_lanes(const FemState& s, const Batch& b, const std::vector<Vec3>* v, 
             S[5][l] += m2 * Real(0.5) * (G[5] + G[7]);
         }
     }
-    Real H[9][L];
     for (int l = 0; l < L; ++l) {
         const Real sig[9] = {S[0][l], S[3][l], S[4][l], S[3][l], S[1][l], S[5][l], S[4][l], S[5][l], S[2][l]};
         Real RS[9];
@@ -260,18 +262,29 @@ void force_lanes(const FemState& s, const Batch& b, const std::vector<Vec3>* v, 
                 H[3 * i + j][l] = -b.V[l] * (RS[3 * i] * b.Di[3 * j][l] + RS[3 * i + 1] * b.Di[3 * j + 1][l] +
                                              RS[3 * i + 2] * b.Di[3 * j + 2][l]);
     }
+}
+
+// Node a's force from an element's H columns h0, h1, h2: f_a = h_{a-1}, f_0 = -(h0 + h1 + h2) (added as
+// f -= h0 + h1 + h2, as one-thread and gathered scatters both do).
+void add_node_force(Vec3& f, int a, const Vec3& h0, const Vec3& h1, const Vec3& h2) {
+    if (a == 0) f -= h0 + h1 + h2;
+    else f += a == 1 ? h0 : a == 2 ? h1 : h2;
+}
+
+// The forces of the batch's elements on the nodes in [lo, hi).
+void scatter_forces(const FemState& s, const Batch& b, const Real (&H)[9][L], std::vector<Vec3>& f, std::uint32_t lo,
+                    std::uint32_t hi) {
     for (int l = 0; l < b.count; ++l) {
         const std::uint32_t* t = &s.tets[4 * (b.first + std::size_t(l))];
         const Vec3 h0(H[0][l], H[3][l], H[6][l]), h1(H[1][l], H[4][l], H[7][l]), h2(H[2][l], H[5][l], H[8][l]);
-        f[t[1]] += h0;
-        f[t[2]] += h1;
-        f[t[3]] += h2;
-        f[t[0]] -= h0 + h1 + h2;
+        for (int a : {1, 2, 3, 0})
+            if (t[a] >= lo && t[a] < hi) add_node_force(f[t[a]], a, h0, h1, h2);
     }
 }
 
-// Adds the element blocks V (λ r_a r_bᵀ + μ r_b r_aᵀ + μ (r_a · r_b) I), r_a = R g_a, into K'.
-void stiffness_lanes(FemState& s, const Batch& b) {
+// The element blocks V (λ r_a r_cᵀ + μ r_c r_aᵀ + μ (r_a · r_c) I), r_a = R g_a, for a <= c (k counts the
+// pairs (a, c) in that order), K[k][3 i + j][l] their (i, j) entries.
+void stiffness_lanes(const FemState& s, const Batch& b, Real (&K)[10][9][L]) {
     Real r[4][3][L];
     for (int l = 0; l < L; ++l)
         for (int a = 1; a < 4; ++a)
@@ -280,7 +293,6 @@ void stiffness_lanes(FemState& s, const Batch& b) {
                              b.R[3 * i + 2][l] * b.Di[3 * (a - 1) + 2][l];
     for (int l = 0; l < L; ++l)
         for (int i = 0; i < 3; ++i) r[0][i][l] = -(r[1][i][l] + r[2][i][l] + r[3][i][l]);
-    Real K[10][9][L];
     const Real lambda = s.lambda, mu = s.mu;
     int k = 0;
     for (int a = 0; a < 4; ++a)
@@ -292,16 +304,26 @@ void stiffness_lanes(FemState& s, const Batch& b) {
                     for (int j = 0; j < 3; ++j)
                         K[k][3 * i + j][l] = vl * r[a][i][l] * r[c][j][l] + vm * r[c][i][l] * r[a][j][l] + (i == j ? d : Real(0));
             }
+}
+
+// The batch's element blocks into K' (Owned: only the block rows of the nodes in [lo, hi); block (a, c) is
+// in node a's row).
+template <bool Owned>
+void scatter_blocks(FemState& s, const Batch& b, const Real (&K)[10][9][L], std::uint32_t lo = 0, std::uint32_t hi = 0) {
     Mat3* blocks = s.stiffness.block.data();
     for (int l = 0; l < b.count; ++l) {
+        const std::uint32_t* t = &s.tets[4 * (b.first + std::size_t(l))];
         const std::uint32_t* slot = &s.element_blocks[16 * (b.first + std::size_t(l))];
-        k = 0;
+        const auto owned = [&](int a) { return !Owned || (t[a] >= lo && t[a] < hi); };
+        int k = 0;
         for (int a = 0; a < 4; ++a)
             for (int c = a; c < 4; ++c, ++k) {
-                Real* A = blocks[slot[4 * a + c]].data();  // column-major: A(i, j) = A[3 j + i]
-                for (int i = 0; i < 3; ++i)
-                    for (int j = 0; j < 3; ++j) A[3 * j + i] += K[k][3 * i + j][l];
-                if (c != a) {
+                if (owned(a)) {
+                    Real* A = blocks[slot[4 * a + c]].data();  // column-major: A(i, j) = A[3 j + i]
+                    for (int i = 0; i < 3; ++i)
+                        for (int j = 0; j < 3; ++j) A[3 * j + i] += K[k][3 * i + j][l];
+                }
+                if (c != a && owned(c)) {
                     Real* B = blocks[slot[4 * c + a]].data();  // the transpose
                     for (int i = 0; i < 3; ++i)
                         for (int j = 0; j < 3; ++j) B[3 * i + j] += K[k][3 * i + j][l];
@@ -328,22 +350,102 @@ void rotate_batch(FemState& s, FemRotation method, std::size_t first, Batch& b) 
 
 }  // namespace
 
+namespace {
+
+void build_parts(FemState& s, int parts) {
+    FemState::ElementParts& g = s.element_parts;
+    const std::size_t n = s.rest.size();
+    // Cuts where the elements' corners (each one a force and four block rows to add) are shared about
+    // equally; a part's element runs follow from its nodes.
+    std::vector<std::size_t> corners(n + 1, 0);
+    for (const std::uint32_t i : s.tets) ++corners[i + 1];
+    for (std::size_t i = 0; i < n; ++i) corners[i + 1] += corners[i];
+    g.node_start.assign(std::size_t(parts) + 1, std::uint32_t(n));
+    g.node_start[0] = 0;
+    for (int p = 1; p < parts; ++p) {
+        const std::size_t target = corners[n] * std::size_t(p) / std::size_t(parts);
+        g.node_start[std::size_t(p)] = std::uint32_t(std::lower_bound(corners.begin(), corners.end(), target) - corners.begin());
+    }
+    g.run_start.assign(1, 0);
+    g.runs.clear();
+    for (int p = 0; p < parts; ++p) {
+        const std::uint32_t lo = g.node_start[std::size_t(p)], hi = g.node_start[std::size_t(p) + 1];
+        bool open = false;
+        for (std::size_t e = 0; e < s.size(); ++e) {
+            bool touches = false;
+            for (int a = 0; a < 4; ++a) touches = touches || (s.tets[4 * e + std::size_t(a)] >= lo && s.tets[4 * e + std::size_t(a)] < hi);
+            if (touches && !open) g.runs.push_back(std::uint32_t(e)), open = true;
+            if (!touches && open) g.runs.push_back(std::uint32_t(e)), open = false;
+        }
+        if (open) g.runs.push_back(std::uint32_t(s.size()));
+        g.run_start.push_back(std::uint32_t(g.runs.size() / 2));
+    }
+}
+
+// The element loop of linear tets on the region's workers, the rotations already kept, owner-computes:
+// the nodes are cut into one contiguous part per worker, and a part's task runs every element with a
+// node in it (an element across a cut runs in both parts: about one layer of elements per cut) and adds
+// its forces and blocks to the part's own nodes and block rows only. Each node's and block's sum then
+// takes its elements in ascending order, as the one-thread loop does: bit for bit the same.
+void element_loop_on_workers(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta,
+                             std::vector<Vec3>* f, bool assemble, ParallelRegion& region) {
+    FemState::ElementParts& g = s.element_parts;
+    if (g.parts() != region.workers() || g.node_start.back() != s.rest.size()) build_parts(s, region.workers());
+    region.for_each(g.parts(), 1, [&](int begin, int end, int) {
+        Batch b;
+        for (int p = begin; p < end; ++p) {
+            const std::uint32_t lo = g.node_start[std::size_t(p)], hi = g.node_start[std::size_t(p) + 1];
+            for (std::uint32_t r = g.run_start[std::size_t(p)]; r < g.run_start[std::size_t(p) + 1]; ++r) {
+                const std::size_t run_end = g.runs[2 * r + 1];
+                for (std::size_t first = g.runs[2 * r]; first < run_end; first += L) {
+                    gather(s, x, first, b, run_end);
+                    for (int l = 0; l < L; ++l)
+                        set_lane_matrix(b.R, l, l < b.count ? s.rotation[b.first + std::size_t(l)] : Mat3::Identity());
+                    if (f) {
+                        Real H[9][L];
+                        force_lanes(s, b, v, beta, H);
+                        scatter_forces(s, b, H, *f, lo, hi);
+                    }
+                    if (assemble) {
+                        Real K[10][9][L];
+                        stiffness_lanes(s, b, K);
+                        scatter_blocks<true>(s, b, K, lo, hi);
+                    }
+                }
+            }
+        }
+    });
+}
+
+}  // namespace
+
 void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
                 bool rotate, std::vector<Vec3>* f, bool assemble, ParallelRegion* region) {
     if (assemble) s.stiffness.set_zero();
     const bool rotated = rotate;
-    if (rotate && region && region->workers() > 1 && s.order == 1 && s.size() >= std::size_t(4 * L)) {
+    const bool on_workers = region && region->workers() > 1 && s.order == 1 && s.size() >= std::size_t(4 * L);
+    std::atomic<int> inverted_on_workers{0};
+    if (rotate && on_workers) {
         // The polar iterations are most of the loop and touch only their own element: on the workers.
         // The loop below then reads the rotations as kept ones.
         const int batches = int((s.size() + L - 1) / L);
         region->for_each(batches, 8, [&](int begin, int end, int) {
             Batch rb;
+            int flat = 0;
             for (int k = begin; k < end; ++k) {
                 gather(s, x, std::size_t(k) * L, rb);
+                for (int l = 0; l < rb.count; ++l) flat += rb.flat[l];
                 rotate_batch(s, method, std::size_t(k) * L, rb);
             }
+            inverted_on_workers.fetch_add(flat, std::memory_order_relaxed);  // a count: the same in any order
         });
         rotate = false;
+    }
+    if (on_workers && (f || assemble)) {
+        element_loop_on_workers(s, x, v, beta, f, assemble, *region);
+        if (rotated) s.inverted = inverted_on_workers.load(std::memory_order_relaxed);
+        if (assemble) s.assembled = true;
+        return;
     }
     int inverted = 0;
     Batch b;
@@ -365,8 +467,16 @@ void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>
             }
             continue;
         }
-        if (f) force_lanes(s, b, v, beta, *f);
-        if (assemble) stiffness_lanes(s, b);
+        if (f) {
+            Real H[9][L];
+            force_lanes(s, b, v, beta, H);
+            scatter_forces(s, b, H, *f, 0, std::uint32_t(s.rest.size()));
+        }
+        if (assemble) {
+            Real K[10][9][L];
+            stiffness_lanes(s, b, K);
+            scatter_blocks<false>(s, b, K);
+        }
     }
     if (rotated) s.inverted = inverted;
     if (assemble) s.assembled = true;
