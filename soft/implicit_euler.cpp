@@ -86,9 +86,41 @@ namespace {
 void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q,
                     bool filter_pinned = true) {
     const std::size_t n = c.mass.size();
-    for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
+    const bool by_rows = c.link_row_start.size() == n + 1;
+    if (by_rows) {
+        // On the workers: each link's S_j (u_a - u_b), then the mass and the springs row by row, row i's
+        // sum taking its links in ascending order, as add_springs_product's scatter does.
+        Vec3* product = c.link_product.data();
+        c.cg.each(c.links.size(), [&](std::size_t begin, std::size_t end) {
+            const ImplicitEulerCache::LinkBlock* links = c.links.data();
+            const Vec3* uu = u.data();
+            Vec3* out = product;
+            for (std::size_t j = begin; j < end; ++j) {
+                const ImplicitEulerCache::LinkBlock& l = links[j];
+                const Vec3 du = uu[l.a] - uu[l.b];
+                out[j] = l.iso * du + (l.aniso * l.dir.dot(du)) * l.dir;
+            }
+        });
+        c.cg.each(n, [&](std::size_t begin, std::size_t end) {
+            const Vec3* uu = u.data();
+            const Vec3* in = product;
+            Vec3* qq = q.data();
+            for (std::size_t i = begin; i < end; ++i) {
+                Vec3 qi = c.mass[i] * uu[i];
+                for (std::uint32_t k = c.link_row_start[i]; k < c.link_row_start[i + 1]; ++k) {
+                    const std::uint32_t e = c.link_row[k];
+                    if (e & 1u) qi -= in[e >> 1];
+                    else qi += in[e >> 1];
+                }
+                qq[i] = qi;
+            }
+        });
+    } else {
+        for (std::size_t i = 0; i < n; ++i) q[i] = c.mass[i] * u[i];
+    }
     for (const ForceModel* model : force_models())
-        if (model->add_implicit_product && model->present(b)) model->add_implicit_product(b, c, u, q);
+        if (model->add_implicit_product && model->present(b) && !(by_rows && model == &kSpringForces))
+            model->add_implicit_product(b, c, u, q);
     if (filter_pinned)
         for (const std::uint32_t i : c.pinned) q[i].setZero();
 }
@@ -266,6 +298,22 @@ void step_implicit_euler(SoftBody& b, Real h) {
             model->prepare_implicit(b, terms);
         else
             model->add_forces(b, p.x, p.v, f);
+    }
+    // A large body's CG runs its loops over the rows on the soft system's workers, the springs' product
+    // gathered by rows (system_product), from this step's links.
+    c.cg.region = b.region;
+    c.link_row_start.clear();
+    if (b.region && b.region->workers() > 1 && n >= BlockCg::kBlockedRows && !c.links.empty()) {
+        c.link_row_start.assign(n + 1, 0);
+        for (const ImplicitEulerCache::LinkBlock& l : c.links) ++c.link_row_start[l.a + 1], ++c.link_row_start[l.b + 1];
+        for (std::size_t i = 0; i < n; ++i) c.link_row_start[i + 1] += c.link_row_start[i];
+        c.link_row.resize(c.link_row_start[n]);
+        c.link_product.resize(c.links.size());
+        c.link_row_fill.assign(c.link_row_start.begin(), c.link_row_start.end() - 1);
+        for (std::size_t j = 0; j < c.links.size(); ++j) {
+            c.link_row[c.link_row_fill[c.links[j].a]++] = std::uint32_t(2 * j);
+            c.link_row[c.link_row_fill[c.links[j].b]++] = std::uint32_t(2 * j + 1);
+        }
     }
 
     // Attachments whose reaction a coupling layer asks for (SoftBody::attachment_impulse): the unfiltered

@@ -36,6 +36,11 @@ struct ImplicitEulerCache {
         Vec3 dir = Vec3::Zero();
     };
     std::vector<LinkBlock> links;
+    /// Per particle, the links that end at it, ascending (2 j at end a, 2 j + 1 at end b), when the CG
+    /// product runs on workers this step (a large body in a region with helpers): the springs' product is
+    /// then gathered row by row, in the order the scatter over the links adds it. Empty otherwise.
+    std::vector<std::uint32_t> link_row_start, link_row, link_row_fill;
+    mutable std::vector<Vec3> link_product;  ///< scratch of the product (a const read of the cache): per link, S_j (u_a - u_b)
     std::vector<Real> mass;             ///< the system's diagonal mass m (1 + hλ drag) per particle
     std::vector<std::uint32_t> pinned;  ///< particles with inverse mass 0 this step (their rows are filtered)
     /// Particles in resting or approaching contact this step: their normal velocity change is fixed to
