@@ -47,6 +47,7 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <memory>
 #include <string>
 
@@ -567,11 +568,17 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         split(region, c.factor.rows(), [&](std::size_t begin, std::size_t end) {
             for (std::size_t r = begin; r < end; ++r) {
                 double a0 = c.inertia[3 * r], a1 = c.inertia[3 * r + 1], a2 = c.inertia[3 * r + 2];
-                // a + (-k) d is a - k d exactly: the signed stiffness gives the scatter's sums.
+                // End b subtracts k d, as the scatter did (adding (-k) d is the same only when rounding
+                // to nearest).
                 for (int q = c.row_link_start[r]; q < c.row_link_start[r + 1]; ++q) {
-                    const double k = c.row_link_k[std::size_t(q)];
+                    const double sk = c.row_link_k[std::size_t(q)];
                     const Vec3& d = c.dir[c.row_link[std::size_t(q)]];
-                    a0 += k * double(d[0]), a1 += k * double(d[1]), a2 += k * double(d[2]);
+                    if (std::signbit(sk)) {
+                        const double k = -sk;
+                        a0 -= k * double(d[0]), a1 -= k * double(d[1]), a2 -= k * double(d[2]);
+                    } else {
+                        a0 += sk * double(d[0]), a1 += sk * double(d[1]), a2 += sk * double(d[2]);
+                    }
                 }
                 c.rhs[3 * r] = a0, c.rhs[3 * r + 1] = a1, c.rhs[3 * r + 2] = a2;
             }

@@ -113,8 +113,9 @@ void fem_assemble_stiffness(FemState& s);
 /// rotations at x if `rotate` (else the kept ones), f += the forces if f is not null, K' assembled if
 /// `assemble`. The force-model row calls this.
 /// With a region of several workers the rotations of linear tets are found first, batch by batch on the
-/// workers (each batch writes only its own elements' rotations); the forces and blocks, which scatter to
-/// shared nodes, follow in element order on the calling thread, so the result is the same bit for bit.
+/// workers (each batch writes only its own elements' rotations); the forces and blocks follow
+/// owner-computes on the workers (each worker adds only to its own nodes and block rows, taking their
+/// elements in ascending order), so the result is the same bit for bit.
 void fem_kernel(FemState& s, const std::vector<Vec3>& x, const std::vector<Vec3>* v, Real beta, FemRotation method,
                 bool rotate, std::vector<Vec3>* f, bool assemble, ParallelRegion* region = nullptr);
 

@@ -69,8 +69,9 @@ void LdltSchedule::build(const LdltArrays& f, int part_count) {
             if (parent[std::size_t(j)] >= 0) children[std::size_t(fill[std::size_t(parent[std::size_t(j)])]++)] = j;
     }
 
-    // Split the costliest subtree while the top's cost plus the largest part's can still fall: once the
-    // top alone costs as much as the best split found, no further split helps.
+    // Split the costliest subtree while the top's cost plus the largest part's can still fall: any split
+    // from here costs at least top + (total - top) / parts, which only grows as the top does, so once that
+    // reaches the best split found, none helps (a factor without links, all roots, stops after one pass).
     const auto lighter = [&](int a, int b) {
         return subtree[std::size_t(a)] != subtree[std::size_t(b)] ? subtree[std::size_t(a)] < subtree[std::size_t(b)] : a > b;
     };
@@ -79,7 +80,7 @@ void LdltSchedule::build(const LdltArrays& f, int part_count) {
         if (parent[std::size_t(j)] < 0) heap.push(j);
     std::vector<int> top, best_top, roots, best_roots, part_of, best_part_of;
     double top_cost = 0, best = total + 1;
-    while (!heap.empty() && top_cost < best) {
+    while (!heap.empty() && top_cost + (total - top_cost) / double(part_count) < best) {
         roots.clear();
         {
             auto copy = heap;

@@ -269,8 +269,9 @@ struct SoftBody {
     Aabb sleep_box;             ///< while asleep: its particles' box fattened by the thickness
     Real sleep_timer = 0;
     std::unique_ptr<ImplicitEulerCache> implicit_cache;
-    /// The soft system's parallel region while it steps the body: a method's large loops (the FEM
-    /// stiffness product) may split across its workers; outside the region's run they run on one thread.
+    /// The soft system's parallel region while it steps the body: a method's large loops (FEM's element
+    /// loop and stiffness product, fast mass-spring's loops and solves, implicit Euler's CG) may split
+    /// across its workers; outside the region's run they run on one thread.
     ParallelRegion* region = nullptr;
     std::unique_ptr<FastMassSpringCache> fms_cache;
     /// Contacts with other soft bodies held inside this step's solve as planes n · x_particle >= offset

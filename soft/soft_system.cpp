@@ -351,7 +351,7 @@ const TaskSystem* SoftSystem::tasks_for_large_bodies() const {
     // under a method that splits nothing (Verlet's relaxation) made its step 0.85x as fast.
     if (!tasks_ || !tasks_->parallel()) return nullptr;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s)) continue;
+        if (!slots_.alive(s) || !bodies_[s].awake) continue;  // asleep: steps nothing (one woken this step goes serial)
         const SoftBody& b = bodies_[s];
         const bool splits = b.fem || ((b.def.method == SoftMethod::FastMassSpring || b.def.method == SoftMethod::ImplicitEuler) &&
                                       !b.solved_by_rows);

@@ -140,8 +140,8 @@ private:
     void integrate_velocities_in_region(Real h);
     /// Particles from which a body's method runs its large loops on the workers.
     static constexpr std::size_t kParallelParticles = 2048;
-    /// The workers for a stage: the task system when a live body whose method splits its loops (FEM,
-    /// fast mass-spring) has at least kParallelParticles particles, else none.
+    /// The workers for a stage: the task system when an awake body whose method splits its loops (FEM,
+    /// fast mass-spring, implicit Euler) has at least kParallelParticles particles, else none.
     const TaskSystem* tasks_for_large_bodies() const;
     void begin_step(SoftBody& b, Real h);
     void detect_collisions(Real h);
