@@ -102,10 +102,7 @@ struct BlockCg {
     /// fn(begin, end) over the rows [0, n), split among the region's workers for a large system.
     template <class Fn>
     void each(std::size_t n, Fn&& fn) const {
-        if (on_workers(n))
-            region->for_each(int(n), 256, [&](int begin, int end, int) { fn(std::size_t(begin), std::size_t(end)); });
-        else
-            fn(0, n);
+        for_ranges(on_workers(n) ? region : nullptr, n, 256, fn);
     }
 
     /// Σ term(i) over the rows [0, n) in double (see kBlockedRows for the order).

@@ -74,13 +74,6 @@ ParallelRegion* parallel_region(const SoftBody& b, const FastMassSpringCache& c)
     return b.region && b.region->workers() > 1 && c.factor.rows() >= kParallelRows ? b.region : nullptr;
 }
 
-// fn(begin, end) over [0, count) on the region's workers, or on this thread without one.
-template <class Fn>
-void split(ParallelRegion* region, std::size_t count, Fn&& fn) {
-    if (region) region->for_each(int(count), 256, [&](int begin, int end, int) { fn(std::size_t(begin), std::size_t(end)); });
-    else fn(0, count);
-}
-
 // Projective dynamics' weights: w_s = 2 μ V (as-rigid-as-possible), w_v = 3 λ V (volume).
 double shape_weight(const FemState& s, std::size_t e) { return 2.0 * double(s.mu) * double(s.volume[e]); }
 double volume_weight(const FemState& s, std::size_t e) { return 3.0 * double(s.lambda) * double(s.volume[e]); }
@@ -125,7 +118,7 @@ bool factorization_is_current(const SoftBody& b, const FastMassSpringCache& c, d
     // workers for a large body (cloth-64: 4,096 masses and 16,002 links, 6% of a 2-worker step on one
     // thread).
     std::atomic<bool> changed{false};
-    split(parallel_region(b, c), n + m, [&](std::size_t begin, std::size_t end) {
+    for_ranges(parallel_region(b, c), n + m, 256, [&](std::size_t begin, std::size_t end) {
         for (std::size_t k = begin; k < end; ++k) {
             bool same;
             if (k < n) {
@@ -231,25 +224,15 @@ void factor(const SoftBody& b, FastMassSpringCache& c, double h) {
         c.link_stiffness[j] = b.links[j].stiffness;
     }
     // The links by row (both ends) and the links to a pinned particle, for the gathers of the step.
-    c.row_link_start.assign(std::size_t(nf) + 1, 0);
     c.pinned_links.clear();
-    for (std::size_t j = 0; j < m; ++j) {
-        const int ra = c.row[b.links[j].a], rb = c.row[b.links[j].b];
-        if (ra >= 0) ++c.row_link_start[std::size_t(ra) + 1];
-        if (rb >= 0) ++c.row_link_start[std::size_t(rb) + 1];
-        if ((ra >= 0) != (rb >= 0)) c.pinned_links.push_back(std::uint32_t(j));
-    }
-    for (int r = 0; r < nf; ++r) c.row_link_start[std::size_t(r) + 1] += c.row_link_start[std::size_t(r)];
-    c.row_link.resize(std::size_t(c.row_link_start[std::size_t(nf)]));
-    c.row_link_k.resize(c.row_link.size());
-    {
-        std::vector<int> fill(c.row_link_start.begin(), c.row_link_start.end() - 1);
-        for (std::size_t j = 0; j < m; ++j) {
-            const int ra = c.row[b.links[j].a], rb = c.row[b.links[j].b];
-            const double k = b.links[j].stiffness;
-            if (ra >= 0) c.row_link[std::size_t(fill[std::size_t(ra)])] = std::uint32_t(j), c.row_link_k[std::size_t(fill[std::size_t(ra)]++)] = k;
-            if (rb >= 0) c.row_link[std::size_t(fill[std::size_t(rb)])] = std::uint32_t(j), c.row_link_k[std::size_t(fill[std::size_t(rb)]++)] = -k;
-        }
+    for (std::size_t j = 0; j < m; ++j)
+        if ((c.row[b.links[j].a] >= 0) != (c.row[b.links[j].b] >= 0)) c.pinned_links.push_back(std::uint32_t(j));
+    c.link_rows.build(std::size_t(nf), m, [&](std::size_t e) { return c.row[c.link_ends[e]]; });
+    c.row_link_k.resize(c.link_rows.entry.size());
+    for (std::size_t q = 0; q < c.row_link_k.size(); ++q) {
+        const std::uint32_t e = c.link_rows.entry[q];
+        const double k = c.link_stiffness[e / 2];
+        c.row_link_k[q] = e % 2 ? -k : k;
     }
     c.schedule.clear();
     if (c.dir.size() != m) c.dir.assign(m, Vec3::Zero());
@@ -484,7 +467,7 @@ void predict_fast_mass_spring(SoftBody& b, Real h) {
     // y, the first iterate, and the inertial part of the right-hand side, M' y / h².
     const Real keep = Real(1) / (Real(1) + h * b.def.drag);
     const double mass_scale = (1.0 + double(h) * double(b.def.drag)) / (double(h) * double(h));
-    split(parallel_region(b, c), n, [&](std::size_t begin, std::size_t end) {
+    for_ranges(parallel_region(b, c), n, 256, [&](std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i < end; ++i) {
             p.x_prev[i] = p.x[i];
             const int r = c.row[i];
@@ -552,7 +535,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     c.contact_iterations = 0;
     for (int it = 0; it < iterations; ++it) {
         // Local step: the rest-length vector of each link along its current direction.
-        split(region, m, [&](std::size_t begin, std::size_t end) {
+        for_ranges(region, m, 256, [&](std::size_t begin, std::size_t end) {
             for (std::size_t j = begin; j < end; ++j) {
                 const Link& l = b.links[j];
                 const Vec3 d = p.x[l.a] - p.x[l.b];
@@ -565,14 +548,14 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         });
         // Global step: (M'/h² + L) x = M' y/h² + J p (+ pinned terms), three coordinates at once. J p is
         // gathered row by row, each row's links ascending: the sums of a scatter over the links in order.
-        split(region, c.factor.rows(), [&](std::size_t begin, std::size_t end) {
+        for_ranges(region, c.factor.rows(), 256, [&](std::size_t begin, std::size_t end) {
             for (std::size_t r = begin; r < end; ++r) {
                 double a0 = c.inertia[3 * r], a1 = c.inertia[3 * r + 1], a2 = c.inertia[3 * r + 2];
                 // End b subtracts k d, as the scatter did (adding (-k) d is the same only when rounding
                 // to nearest).
-                for (int q = c.row_link_start[r]; q < c.row_link_start[r + 1]; ++q) {
-                    const double sk = c.row_link_k[std::size_t(q)];
-                    const Vec3& d = c.dir[c.row_link[std::size_t(q)]];
+                for (std::uint32_t q = c.link_rows.start[r]; q < c.link_rows.start[r + 1]; ++q) {
+                    const double sk = c.row_link_k[q];
+                    const Vec3& d = c.dir[c.link_rows.entry[q] / 2];
                     if (std::signbit(sk)) {
                         const double k = -sk;
                         a0 -= k * double(d[0]), a1 -= k * double(d[1]), a2 -= k * double(d[2]);
@@ -589,7 +572,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
         if (!c.contacts.empty())
             c.contact_iterations +=
                 hold_contacts(c, kContactTolerance * double(b.def.thickness), kContactIterations, region);
-        split(region, n, [&](std::size_t begin, std::size_t end) {
+        for_ranges(region, n, 256, [&](std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i) {
                 const int r = c.row[i];
                 if (r >= 0) {
@@ -625,7 +608,7 @@ void solve_fast_mass_spring(SoftBody& b, Real h, ParticleCollision* collision) {
     }
 
     const Real inv_h = Real(1) / h;
-    split(region, n, [&](std::size_t begin, std::size_t end) {
+    for_ranges(region, n, 256, [&](std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i < end; ++i)
             if (c.row[i] >= 0) p.v[i] = (p.x[i] - p.x_prev[i]) * inv_h;
     });

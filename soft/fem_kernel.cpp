@@ -332,9 +332,6 @@ void scatter_blocks(FemState& s, const Batch& b, const Real (&K)[10][9][L], std:
     }
 }
 
-}  // namespace
-
-namespace {
 
 /// The rotations of batch `first`'s elements at x (b gathered), kept in the state and left in b.R.
 void rotate_batch(FemState& s, FemRotation method, std::size_t first, Batch& b) {
@@ -348,9 +345,6 @@ void rotate_batch(FemState& s, FemRotation method, std::size_t first, Batch& b) 
     for (int l = 0; l < b.count; ++l) s.rotation[first + std::size_t(l)] = lane_matrix(b.R, l);
 }
 
-}  // namespace
-
-namespace {
 
 void build_parts(FemState& s, int parts) {
     FemState::ElementParts& g = s.element_parts;

@@ -86,7 +86,7 @@ namespace {
 void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::vector<Vec3>& u, std::vector<Vec3>& q,
                     bool filter_pinned = true) {
     const std::size_t n = c.mass.size();
-    const bool by_rows = c.link_row_start.size() == n + 1;
+    const bool by_rows = c.link_rows.built_for(n);
     if (by_rows) {
         // On the workers: each link's S_j (u_a - u_b), then the mass and the springs row by row, row i's
         // sum taking its links in ascending order, as add_springs_product's scatter does.
@@ -107,8 +107,8 @@ void system_product(const SoftBody& b, const ImplicitEulerCache& c, const std::v
             Vec3* qq = q.data();
             for (std::size_t i = begin; i < end; ++i) {
                 Vec3 qi = c.mass[i] * uu[i];
-                for (std::uint32_t k = c.link_row_start[i]; k < c.link_row_start[i + 1]; ++k) {
-                    const std::uint32_t e = c.link_row[k];
+                for (std::uint32_t k = c.link_rows.start[i]; k < c.link_rows.start[i + 1]; ++k) {
+                    const std::uint32_t e = c.link_rows.entry[k];
                     if (e & 1u) qi -= in[e >> 1];
                     else qi += in[e >> 1];
                 }
@@ -302,18 +302,10 @@ void step_implicit_euler(SoftBody& b, Real h) {
     // A large body's CG runs its loops over the rows on the soft system's workers, the springs' product
     // gathered by rows (system_product), from this step's links.
     c.cg.region = b.region;
-    c.link_row_start.clear();
+    c.link_rows.clear();
     if (b.region && b.region->workers() > 1 && n >= BlockCg::kBlockedRows && !c.links.empty()) {
-        c.link_row_start.assign(n + 1, 0);
-        for (const ImplicitEulerCache::LinkBlock& l : c.links) ++c.link_row_start[l.a + 1], ++c.link_row_start[l.b + 1];
-        for (std::size_t i = 0; i < n; ++i) c.link_row_start[i + 1] += c.link_row_start[i];
-        c.link_row.resize(c.link_row_start[n]);
+        c.link_rows.build(n, c.links.size(), [&](std::size_t e) { return e % 2 ? c.links[e / 2].b : c.links[e / 2].a; });
         c.link_product.resize(c.links.size());
-        c.link_row_fill.assign(c.link_row_start.begin(), c.link_row_start.end() - 1);
-        for (std::size_t j = 0; j < c.links.size(); ++j) {
-            c.link_row[c.link_row_fill[c.links[j].a]++] = std::uint32_t(2 * j);
-            c.link_row[c.link_row_fill[c.links[j].b]++] = std::uint32_t(2 * j + 1);
-        }
     }
 
     // Attachments whose reaction a coupling layer asks for (SoftBody::attachment_impulse): the unfiltered

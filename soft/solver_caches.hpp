@@ -17,6 +17,7 @@
 #include "soft/fem_rest_factor.hpp"
 #include "soft/ldlt_schedule.hpp"
 #include "soft/ldlt_solve.hpp"
+#include "soft/link_rows.hpp"
 
 namespace sinew {
 
@@ -36,10 +37,10 @@ struct ImplicitEulerCache {
         Vec3 dir = Vec3::Zero();
     };
     std::vector<LinkBlock> links;
-    /// Per particle, the links that end at it, ascending (2 j at end a, 2 j + 1 at end b), when the CG
-    /// product runs on workers this step (a large body in a region with helpers): the springs' product is
-    /// then gathered row by row, in the order the scatter over the links adds it. Empty otherwise.
-    std::vector<std::uint32_t> link_row_start, link_row, link_row_fill;
+    /// Per particle, the link ends at it, when the CG product runs on workers this step (a large body in
+    /// a region with helpers): the springs' product is then gathered row by row, in the order the scatter
+    /// over the links adds it. Empty otherwise.
+    LinkRows link_rows;
     mutable std::vector<Vec3> link_product;  ///< scratch of the product (a const read of the cache): per link, S_j (u_a - u_b)
     std::vector<Real> mass;             ///< the system's diagonal mass m (1 + hλ drag) per particle
     std::vector<std::uint32_t> pinned;  ///< particles with inverse mass 0 this step (their rows are filtered)
@@ -111,11 +112,10 @@ struct FastMassSpringCache {
     SparseMatrix matrix;          ///< M'/h² + L in row order, lower triangle
     LdltArrays factor;            ///< its factorization L D Lᵀ (empty: no free particle)
     LdltSchedule schedule;        ///< the factor's solves split among workers (built on first parallel use)
-    /// Per row, the links that end at its particle, ascending, and each one's stiffness signed by the
-    /// end (+k at end a, -k at end b): the right-hand side's J p gathered row by row, in the order a pass
-    /// over the links adds it.
-    std::vector<int> row_link_start;
-    std::vector<std::uint32_t> row_link;
+    /// Per row, the link ends at its particle, ascending, and each entry's stiffness signed by the end
+    /// (+k at end a, -k at end b, read in sequence): the right-hand side's J p gathered row by row, in the
+    /// order a pass over the links adds it.
+    LinkRows link_rows;
     std::vector<double> row_link_k;
     std::vector<std::uint32_t> pinned_links;  ///< the links with one end free and one pinned, ascending
     bool factored = false;

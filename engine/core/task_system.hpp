@@ -18,6 +18,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <exception>
 #include <mutex>
@@ -159,5 +160,15 @@ private:
     std::thread::id owner_;
     Helper helpers_[kMaxWorkers];
 };
+
+/// fn(begin, end) over [0, count) in blocks of at least min_block on `region`'s workers, or once on this
+/// thread when `region` is null: for a loop that a caller puts on the workers only past a size threshold.
+template <class Fn>
+void for_ranges(ParallelRegion* region, std::size_t count, int min_block, Fn&& fn) {
+    if (region)
+        region->for_each(int(count), min_block, [&](int begin, int end, int) { fn(std::size_t(begin), std::size_t(end)); });
+    else
+        fn(std::size_t(0), count);
+}
 
 }  // namespace sinew
