@@ -341,42 +341,76 @@ bool touched_by_moving_collider(const Aabb& box, const CollisionFilter& filter, 
 void SoftSystem::integrate_velocities(Real h) {
     contacts_.clear();
     if (collision_.size() < bodies_.size()) collision_.resize(bodies_.size());
-    // The bodies one after the other; a large body's method splits its own loops among the workers
-    // (SoftBody::region).
-    region_.run(tasks_for_large_bodies(), [&] { integrate_velocities_in_region(h); });
+    if (body_contacts_.size() < bodies_.size()) body_contacts_.resize(bodies_.size());
+    region_.run(tasks_for_stage(), [&] { integrate_velocities_in_region(h); });
 }
 
-const TaskSystem* SoftSystem::tasks_for_large_bodies() const {
-    // Helpers only when a body whose method splits its loops is large: waking them for a 64x64 cloth
-    // under a method that splits nothing (Verlet's relaxation) made its step 0.85x as fast.
+bool SoftSystem::splits_loops(const SoftBody& b) {
+    const bool splits = b.fem || ((b.def.method == SoftMethod::FastMassSpring || b.def.method == SoftMethod::ImplicitEuler) &&
+                                  !b.solved_by_rows);
+    return splits && b.p.size() >= kParallelParticles;
+}
+
+const TaskSystem* SoftSystem::tasks_for_stage() const {
+    // Helpers only when there is enough to share: waking them for a 64x64 cloth under a method that
+    // splits nothing (Verlet's relaxation) made its step 0.85x as fast. Asleep bodies step nothing (one
+    // woken this step goes to the calling thread).
     if (!tasks_ || !tasks_->parallel()) return nullptr;
+    std::size_t others = 0, other_particles = 0;
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s) || !bodies_[s].awake) continue;  // asleep: steps nothing (one woken this step goes serial)
-        const SoftBody& b = bodies_[s];
-        const bool splits = b.fem || ((b.def.method == SoftMethod::FastMassSpring || b.def.method == SoftMethod::ImplicitEuler) &&
-                                      !b.solved_by_rows);
-        if (splits && b.p.size() >= kParallelParticles) return tasks_;
+        if (!slots_.alive(s) || !bodies_[s].awake) continue;
+        if (splits_loops(bodies_[s])) return tasks_;
+        ++others;
+        other_particles += bodies_[s].p.size();
     }
-    return nullptr;
+    return others >= 2 && other_particles >= kParallelBodyParticles ? tasks_ : nullptr;
+}
+
+template <class Fn>
+void SoftSystem::for_bodies(const std::vector<std::uint32_t>& slots, Fn&& fn) {
+    small_slots_.clear();
+    for (std::uint32_t s : slots) {
+        if (splits_loops(bodies_[s])) {
+            bodies_[s].region = &region_;
+            fn(s);
+        } else {
+            small_slots_.push_back(s);
+        }
+    }
+    if (region_.workers() > 1 && small_slots_.size() > 1) {
+        // One body per item (a stage's blocks are cut into one range per worker, and a worker that
+        // finishes its range takes from the others'); no body may open a stage from a helper.
+        for (std::uint32_t s : small_slots_) bodies_[s].region = nullptr;
+        region_.for_each(int(small_slots_.size()), 1, [&](int begin, int end, int) {
+            for (int k = begin; k < end; ++k) fn(small_slots_[std::size_t(k)]);
+        });
+        for (std::uint32_t s : small_slots_) bodies_[s].region = &region_;
+    } else {
+        for (std::uint32_t s : small_slots_) {
+            bodies_[s].region = &region_;
+            fn(s);
+        }
+    }
 }
 
 void SoftSystem::integrate_velocities_in_region(Real h) {
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;  // put back: sits out the step
+    stage_slots_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && !(s < faulted_.size() && faulted_[s])) stage_slots_.push_back(s);  // faulted: sits out the step
+    for_bodies(stage_slots_, [&](std::uint32_t s) {
         SoftBody& b = bodies_[s];
         b.stepping = false;
         b.gravity = settings_.gravity * b.def.gravity_scale;
         const bool attachments_moved = follow_attachments(b, h, settings_.sleep_velocity);
         if (!b.awake) {
-            if (!attachments_moved) continue;  // may still be woken by a collider (detect_collisions)
+            if (!attachments_moved) return;  // may still be woken by a collider (detect_collisions)
             b.sleep_timer = 0;
         }
         begin_step(b, h);
-    }
+    });
 }
 
 void SoftSystem::begin_step(SoftBody& b, Real h) {
-    b.region = &region_;
     b.awake = true;
     b.stepping = true;
     Particles& p = b.p;
@@ -417,6 +451,7 @@ void SoftSystem::wake_touched_by_soft_bodies(Real h) {
                 !SoftContactPass::may_touch(bodies_[t], t, b, s))
                 continue;
             b.sleep_timer = 0;
+            b.region = &region_;
             begin_step(b, h);
             break;
         }
@@ -425,6 +460,7 @@ void SoftSystem::wake_touched_by_soft_bodies(Real h) {
 
 void SoftSystem::detect_collisions(Real h) {
     wake_touched_by_soft_bodies(h);
+    stage_slots_.clear();
     for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
         if (!slots_.alive(s) || (s < faulted_.size() && faulted_[s])) continue;
         SoftBody& b = bodies_[s];
@@ -436,11 +472,19 @@ void SoftSystem::detect_collisions(Real h) {
                 !touched_by_moving_collider(bounds(s), b.def.filter, colliders_, settings_.sleep_velocity))
                 continue;
             b.sleep_timer = 0;
+            b.region = &region_;
             begin_step(b, h);
         }
-        static const std::vector<Collider> kNone;
-        collision_[s].begin(b, b.meets_colliders_through_proxy || b.meets_soft_bodies_only ? kNone : colliders_, h);
+        stage_slots_.push_back(s);
     }
+    // Each body's candidate colliders and planes, one body per item (the stage's colliders are only read).
+    static const std::vector<Collider> kNone;
+    region_.run(tasks_for_stage(), [&] {
+        for_bodies(stage_slots_, [&](std::uint32_t s) {
+            const SoftBody& b = bodies_[s];
+            collision_[s].begin(b, b.meets_colliders_through_proxy || b.meets_soft_bodies_only ? kNone : colliders_, h);
+        });
+    });
 }
 
 void SoftSystem::solve_velocities(Real h) {
@@ -458,7 +502,10 @@ void SoftSystem::solve_velocities(Real h) {
     } else {
         for (const SoftContactPass::Entry& e : contact_entries_) e.body->soft_planes.clear();
     }
-    region_.run(tasks_for_large_bodies(), [&] { solve_bodies_in_region(h); });
+    region_.run(tasks_for_stage(), [&] { solve_bodies_in_region(h); });
+    // Each body's contacts with colliders, in slot order.
+    for (const SoftContactPass::Entry& e : contact_entries_)
+        if (e.stepping) contacts_.insert(contacts_.end(), body_contacts_[e.slot].begin(), body_contacts_[e.slot].end());
     // Soft bodies against each other, once every body has solved its own forces and rigid contacts.
     soft_contacts_.run(contact_entries_, h);
     // A particle the pass moved is not held by implicit Euler's filter in the next solve (record_contacts):
@@ -474,8 +521,10 @@ void SoftSystem::solve_velocities(Real h) {
 }
 
 void SoftSystem::solve_bodies_in_region(Real h) {
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s) || !bodies_[s].stepping) continue;
+    stage_slots_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && bodies_[s].stepping) stage_slots_.push_back(s);
+    for_bodies(stage_slots_, [&](std::uint32_t s) {
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
         p.x.swap(p.x_next);  // work on the predicted positions
@@ -484,12 +533,13 @@ void SoftSystem::solve_bodies_in_region(Real h) {
         ParticleCollision* collision = collision_[s].empty() ? nullptr : &collision_[s];
         soft_stages_of(b).solve_constraints(b, h, collision);
         restore_attachment_velocities(b);
-        const std::size_t first_contact = contacts_.size();
-        if (collision) collision->finish(b, s, h, contacts_);
-        record_contacts(b, first_contact);
+        std::vector<ParticleContact>& contacts = body_contacts_[s];
+        contacts.clear();
+        if (collision) collision->finish(b, s, h, contacts);
+        record_contacts(b, contacts);
         p.v_solved = p.v;
         p.x.swap(p.x_next);  // positions stay x_n until IntegratePositions
-    }
+    });
 }
 
 const ParticleCollision* SoftSystem::collision(std::uint32_t slot) const {
@@ -510,7 +560,7 @@ void SoftSystem::change_predicted_velocity(std::uint32_t slot, std::uint32_t i, 
     b.p.v[i] += dv;
 }
 
-void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
+void SoftSystem::record_contacts(SoftBody& b, const std::vector<ParticleContact>& contacts) {
     // Only implicit Euler reads them: its constraint filter (Baraff & Witkin 1998 §5.3) holds each
     // particle's normal velocity in the next step's solve, instead of leaving it to the projection after
     // the solve, whose position pushes the links learn of a step late. FEM bodies and bodies a two-way
@@ -537,8 +587,7 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
     b.contact_normal.assign(n, Vec3::Zero());
     b.contact_speed.assign(n, Real(0));
     b.contact_owner.assign(n, kNoOwner);
-    for (std::size_t k = first; k < contacts_.size(); ++k) {
-        const ParticleContact& c = contacts_[k];
+    for (const ParticleContact& c : contacts) {
         const Collider& col = colliders_[c.collider];
         if (!every_collider && (col.dynamic || !(col.v.isZero() && col.w.isZero()))) continue;
         b.contact_normal[c.particle] = c.normal;
@@ -548,13 +597,16 @@ void SoftSystem::record_contacts(SoftBody& b, std::size_t first) {
 }
 
 void SoftSystem::integrate_positions(Real h) {
-    region_.run(tasks_for_large_bodies(), [&] { integrate_positions_in_region(h); });
+    region_.run(tasks_for_stage(), [&] { integrate_positions_in_region(h); });
 }
 
 void SoftSystem::integrate_positions_in_region(Real h) {
     const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s) {
-        if (!slots_.alive(s) || !bodies_[s].stepping) continue;
+    stage_slots_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && bodies_[s].stepping) stage_slots_.push_back(s);
+    if (first_bad_.size() < bodies_.size()) first_bad_.resize(bodies_.size());
+    for_bodies(stage_slots_, [&](std::uint32_t s) {
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
         const std::size_t n = p.size();
@@ -564,9 +616,9 @@ void SoftSystem::integrate_positions_in_region(Real h) {
         // beyond kBlowUpSpeed is found (the least index over the blocks: the same on any worker count);
         // the step's external forces are cleared.
         std::atomic<std::size_t> first_bad{n};
-        region_.for_each(int(n), 1024, [&](int begin, int end, int) {
+        for_ranges(b.region, n, 1024, [&](std::size_t begin, std::size_t end) {
             std::size_t bad = n;
-            for (std::size_t i = std::size_t(begin); i < std::size_t(end); ++i) {
+            for (std::size_t i = begin; i < end; ++i) {
                 if (p.inv_mass[i] != 0) p.x_next[i] += h * (p.v[i] - p.v_solved[i]);
                 if (bad == n && (!p.x_next[i].allFinite() || !(p.v[i].squaredNorm() < fast))) bad = i;
                 p.f[i].setZero();
@@ -575,8 +627,13 @@ void SoftSystem::integrate_positions_in_region(Real h) {
             while (bad < seen && !first_bad.compare_exchange_weak(seen, bad, std::memory_order_relaxed)) {
             }
         });
-        contain_non_finite(s, h, first_bad.load(std::memory_order_relaxed));
-        p.x.swap(p.x_next);
+        first_bad_[s] = first_bad.load(std::memory_order_relaxed);
+    });
+    // In slot order: a fault's place in faults() does not depend on which worker found it.
+    for (std::uint32_t s : stage_slots_) {
+        SoftBody& b = bodies_[s];
+        contain_non_finite(s, h, first_bad_[s]);
+        b.p.x.swap(b.p.x_next);
         b.stepping = false;
         update_sleep(b, h);
     }
