@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <limits>
 
+#include <Eigen/OrderingMethods>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 
@@ -37,6 +38,13 @@ struct Term {
     int value[9];
 };
 
+// SimplicialLDLT's factorisation of a matrix already ordered: its factorize() builds an empty matrix (an
+// allocation) on each call even when it reads its input where it is.
+class OrderedLdlt : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> {
+public:
+    void factorize_ordered(const Eigen::SparseMatrix<double>& ap) { this->template factorize_preordered<true>(ap); }
+};
+
 }  // namespace
 
 struct JointPointSolve::Impl {
@@ -46,13 +54,22 @@ struct JointPointSolve::Impl {
     std::vector<End> ends;
     std::vector<Term> terms;
     std::vector<int> diagonal;               // per joint: the nine value places of its own block
-    std::vector<std::uint32_t> body_place;   // scratch: body slot -> index in `bodies` (or ~0u)
     std::vector<std::uint32_t> count;        // scratch of prepare(): ends per body in `bodies`
     std::vector<Eigen::Triplet<double>> pattern;  // scratch of prepare(): the matrix's entries
-    Eigen::SparseMatrix<double> a;
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+    // The matrix in joint order (both triangles), and its lower triangle ordered once per pattern as
+    // Eigen's SimplicialLDLT<Lower, AMD> orders it for each factorisation (P A Pᵀ, upper triangle,
+    // entries in the same places): `ap` takes its values through `ap_source` (a place in `a` per
+    // entry) and is factorised where it is. The factor is the one Eigen's compute() gave, bit for bit,
+    // without its ordering (AMD) once per step and its copy of the matrix once per pass.
+    Eigen::SparseMatrix<double> a, ap;
+    std::vector<int> ap_source;
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm, perm_inv;
+    OrderedLdlt ldlt;
     bool factorable = false;
-    Eigen::VectorXd rhs, dl;
+    // The pattern's key: per joint in the solve, its slot and its movable bodies (~0u: immovable end).
+    // prepare() keeps the pattern, its ordering and its analysis while the key stands.
+    std::vector<std::uint32_t> key, last_key;
+    Eigen::VectorXd rhs, dl, ordered;
     std::vector<Vec3d> ra, rb;               // per joint, this pass's arms
     std::vector<Mat3d> own;                  // per joint, its block K_k
     std::vector<double> inv_mass;            // per body in `bodies`
@@ -65,33 +82,60 @@ JointPointSolve::~JointPointSolve() = default;
 const std::vector<std::uint32_t>& JointPointSolve::slots() const { return m_->slots; }
 
 void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows,
-                              const std::vector<std::uint32_t>& active, std::size_t body_slots) {
+                              const std::uint32_t* active, std::size_t count, std::vector<std::uint32_t>& body_scratch) {
     Impl& m = *m_;
     m.slots.clear();
-    m.bodies.clear();
-    m.terms.clear();
-    m.factorable = false;
     // A body holding many joints couples them all: its block of the matrix is dense (a hub of 500 joints
     // would factor a 1,500-row dense matrix every pass). The joints on a body past kMaxJointsPerBody are
     // left to the sweeps alone; the rest are solved.
-    m.body_place.assign(body_slots, 0);  // scratch: joints per movable body
-    for (std::uint32_t s : active) {
-        if (!has_point_block(joints[s].def.type)) continue;
-        const JointRows& r = rows[s];
-        if (r.ma != 0) ++m.body_place[r.a];
-        if (r.mb != 0) ++m.body_place[r.b];
+    // Only the movable bodies' entries of the scratch are touched: the groups of a joint set prepare
+    // at once on different workers, and share no movable body.
+    std::vector<std::uint32_t>& joints_on = body_scratch;  // joints per movable body, zero again below
+    const std::uint32_t* const end = active + count;
+    for (const std::uint32_t* s = active; s != end; ++s) {
+        if (!has_point_block(joints[*s].def.type)) continue;
+        const JointRows& r = rows[*s];
+        if (r.ma != 0) ++joints_on[r.a];
+        if (r.mb != 0) ++joints_on[r.b];
     }
-    for (std::uint32_t s : active) {
-        if (!has_point_block(joints[s].def.type)) continue;
-        const JointRows& r = rows[s];
-        if ((r.ma != 0 && m.body_place[r.a] > kMaxJointsPerBody) || (r.mb != 0 && m.body_place[r.b] > kMaxJointsPerBody))
+    for (const std::uint32_t* s = active; s != end; ++s) {
+        if (!has_point_block(joints[*s].def.type)) continue;
+        const JointRows& r = rows[*s];
+        if ((r.ma != 0 && joints_on[r.a] > kMaxJointsPerBody) || (r.mb != 0 && joints_on[r.b] > kMaxJointsPerBody))
             continue;
-        m.slots.push_back(s);
+        m.slots.push_back(*s);
     }
+    for (const std::uint32_t* s = active; s != end; ++s) {
+        if (rows[*s].ma != 0) joints_on[rows[*s].a] = 0;
+        if (rows[*s].mb != 0) joints_on[rows[*s].b] = 0;
+    }
+    m.key.clear();
+    for (std::uint32_t s : m.slots) {
+        const JointRows& r = rows[s];
+        m.key.insert(m.key.end(), {s, r.ma != 0 ? r.a : ~0u, r.mb != 0 ? r.b : ~0u});
+    }
+    if (m.slots.empty() || m.key != m.last_key) build_pattern(m, rows, body_scratch);
+    m.last_key.swap(m.key);
+    if (m.slots.empty()) return;
+    for (std::size_t p = 0; p < m.bodies.size(); ++p) {
+        // Any end's rows carry the body's inverse mass and world inverse inertia for this step.
+        const End& e = m.ends[m.body_first[p]];
+        const JointRows& r = rows[m.slots[e.joint]];
+        const bool is_a = e.sign < 0;
+        m.inv_mass[p] = double(is_a ? r.ma : r.mb);
+        m.inv_inertia[p] = (is_a ? r.ia : r.ib).cast<double>();
+    }
+}
+
+void JointPointSolve::build_pattern(Impl& m, const std::vector<JointRows>& rows, std::vector<std::uint32_t>& body_scratch) {
+    m.bodies.clear();
+    m.terms.clear();
+    m.factorable = false;
     if (m.slots.empty()) return;
     const std::size_t n = m.slots.size();
-    // Movable bodies and their ends, grouped by body (counting sort).
-    m.body_place.assign(body_slots, ~0u);
+    // Movable bodies (in the order of their first end) and their ends, grouped by body (counting sort).
+    // place[b] is 1 + b's index in `bodies`, 0 for none, and 0 again at the end.
+    std::vector<std::uint32_t>& place_of = body_scratch;
     std::vector<std::uint32_t>& count = m.count;  // reused from step to step
     count.clear();
     for (std::uint32_t k = 0; k < n; ++k) {
@@ -99,12 +143,12 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
         for (int side = 0; side < 2; ++side) {
             const std::uint32_t b = side ? r.b : r.a;
             if ((side ? r.mb : r.ma) == 0) continue;
-            if (m.body_place[b] == ~0u) {
-                m.body_place[b] = std::uint32_t(m.bodies.size());
+            if (place_of[b] == 0) {
                 m.bodies.push_back(b);
+                place_of[b] = std::uint32_t(m.bodies.size());
                 count.push_back(0);
             }
-            ++count[m.body_place[b]];
+            ++count[place_of[b] - 1];
         }
     }
     m.body_first.assign(m.bodies.size() + 1, 0);
@@ -116,10 +160,11 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
         for (int side = 0; side < 2; ++side) {
             const std::uint32_t b = side ? r.b : r.a;
             if ((side ? r.mb : r.ma) == 0) continue;
-            const std::uint32_t place = m.body_place[b];
+            const std::uint32_t place = place_of[b] - 1;
             m.ends[m.body_first[place] + count[place]++] = {k, side ? 1.0 : -1.0};
         }
     }
+    for (std::uint32_t b : m.bodies) place_of[b] = 0;
     // The pattern: every pair of joints sharing a movable body, their 3x3 blocks, and each joint's own.
     std::vector<Eigen::Triplet<double>>& pattern = m.pattern;
     pattern.clear();
@@ -158,23 +203,33 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
                 place(m.ends[i].joint, m.ends[j].joint, t.value);
                 m.terms.push_back(t);
             }
-    m.ldlt.analyzePattern(m.a);
+    // The ordering, as SimplicialLDLT<Lower, AMDOrdering> finds it (SimplicialCholeskyBase::ordering),
+    // and the ordered upper triangle built by the same assignment from a copy of `a` whose values are
+    // their own places, so each entry of `ap` names the entry of `a` it copies.
+    {
+        Eigen::SparseMatrix<double> full;
+        full = m.a.selfadjointView<Eigen::Lower>();
+        Eigen::AMDOrdering<int> amd;
+        amd(full, m.perm_inv);
+    }
+    m.perm = m.perm_inv.inverse();
+    Eigen::SparseMatrix<double> places = m.a;
+    for (Eigen::Index q = 0; q < places.nonZeros(); ++q) places.valuePtr()[q] = double(q);
+    m.ap.resize(dim, dim);
+    m.ap.selfadjointView<Eigen::Upper>() = places.selfadjointView<Eigen::Lower>().twistedBy(m.perm);
+    m.ap.makeCompressed();
+    m.ap_source.resize(std::size_t(m.ap.nonZeros()));
+    for (std::size_t q = 0; q < m.ap_source.size(); ++q) m.ap_source[q] = int(m.ap.valuePtr()[q]);
+    m.ldlt.analyzePattern(m.ap);
     m.factorable = m.ldlt.info() == Eigen::Success;
     m.rhs.resize(dim);
     m.dl.resize(dim);
+    m.ordered.resize(dim);
     m.ra.resize(n);
     m.rb.resize(n);
     m.own.resize(n);
     m.inv_mass.resize(m.bodies.size());
     m.inv_inertia.resize(m.bodies.size());
-    for (std::size_t p = 0; p < m.bodies.size(); ++p) {
-        // Any end's rows carry the body's inverse mass and world inverse inertia for this step.
-        const End& e = m.ends[m.body_first[p]];
-        const JointRows& r = rows[m.slots[e.joint]];
-        const bool is_a = e.sign < 0;
-        m.inv_mass[p] = double(is_a ? r.ma : r.mb);
-        m.inv_inertia[p] = (is_a ? r.ia : r.ib).cast<double>();
-    }
 }
 
 void JointPointSolve::solve(std::vector<JointData>& joints, const std::vector<JointRows>& rows,
@@ -230,9 +285,14 @@ void JointPointSolve::solve(std::vector<JointData>& joints, const std::vector<Jo
             for (int v = 0; v < 3; ++v) values[m.diagonal[9 * k + 3 * u + v]] += extra(u, v);
         if (gamma > 0) m.rhs.segment<3>(Eigen::Index(3 * k)) -= gamma * m.own[k] * joints[m.slots[k]].impulses.point.cast<double>();
     }
-    m.ldlt.factorize(m.a);
+    double* ordered_values = m.ap.valuePtr();
+    for (std::size_t q = 0; q < m.ap_source.size(); ++q) ordered_values[q] = values[m.ap_source[q]];
+    m.ldlt.factorize_ordered(m.ap);
     if (m.ldlt.info() != Eigen::Success) return;  // singular (cannot be with one movable body per joint)
-    m.dl = m.ldlt.solve(m.rhs);
+    // x = Pᵀ (L D Lᵀ)⁻¹ P b, as SimplicialLDLT's solve applies its ordering.
+    m.ordered = m.perm * m.rhs;
+    m.dl = m.ldlt.solve(m.ordered);
+    m.dl = m.perm_inv * m.dl;
     if (!m.dl.allFinite()) return;
     for (std::uint32_t k = 0; k < n; ++k) {
         JointData& j = joints[m.slots[k]];

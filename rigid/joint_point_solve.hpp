@@ -12,10 +12,10 @@
 //     (J M^-1 J^T + gamma blockdiag(K)) dLambda = -(J v + bias_rate C) - gamma blockdiag(K) Lambda,
 // where K_k, the joint's own 3x3 block of J M^-1 J^T, is (m_A + m_B) 1 - [r_A]x I_A^-1 [r_A]x - [r_B]x
 // I_B^-1 [r_B]x. Joints couple through the bodies they share; a chain's matrix is block tridiagonal and
-// its sparse LDL^T (Eigen's SimplicialLDLT, pattern analysed once per step) costs O(n). Solved in double
-// whatever Real is: the diagonal of a 1:100 chain spans four orders of magnitude. The matrix's values are
-// written in place through indices found when the pattern is built; Eigen's factorize() still allocates
-// its ordered copy of the matrix each pass (open: a factorisation on a fixed, pre-ordered pattern).
+// its sparse LDL^T (Eigen's SimplicialLDLT; the pattern ordered and analysed once while the joints and
+// their movable bodies stand) costs O(n). Solved in double whatever Real is: the diagonal of a 1:100
+// chain spans four orders of magnitude. The matrix's values are written in place through indices found
+// when the pattern is built, then copied into the ordered matrix, which is factorised where it is.
 #pragma once
 
 #include <cstdint>
@@ -36,12 +36,14 @@ public:
     JointPointSolve(const JointPointSolve&) = delete;
     JointPointSolve& operator=(const JointPointSolve&) = delete;
 
-    /// Once per step, after the rows are prepared: the joints among `active` (slots) that have a point
-    /// block, their movable bodies (inverse mass > 0) and the matrix's pattern. `body_slots` is the
-    /// number of body slots. The joints on a movable body that holds more than 32 of them are left out
-    /// (its block would be dense): the sweeps alone hold those.
-    void prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows,
-                 const std::vector<std::uint32_t>& active, std::size_t body_slots);
+    /// Once per step, after the rows are prepared: the joints among the `count` slots at `active` that
+    /// have a point block, their movable bodies (inverse mass > 0) and the matrix's pattern (kept from
+    /// the last call while the joints and their movable bodies are the same). `body_scratch` has an
+    /// entry per body slot, all zero, and is left so; only the movable bodies' entries are touched. The
+    /// joints on a movable body that holds more than 32 of them are left out (its block would be
+    /// dense): the sweeps alone hold those.
+    void prepare(const std::vector<JointData>& joints, const std::vector<JointRows>& rows, const std::uint32_t* active,
+                 std::size_t count, std::vector<std::uint32_t>& body_scratch);
     /// The joint slots in the solve, in matrix order (empty: solve() does nothing). The caller must not
     /// solve when one of them has been destroyed since prepare().
     const std::vector<std::uint32_t>& slots() const;
@@ -53,6 +55,8 @@ public:
 
 private:
     struct Impl;
+    /// The bodies, ends, matrix pattern, its ordering and analysis for the joints in m.slots.
+    static void build_pattern(Impl& m, const std::vector<JointRows>& rows, std::vector<std::uint32_t>& body_scratch);
     std::unique_ptr<Impl> m_;
 };
 

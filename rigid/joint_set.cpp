@@ -13,6 +13,7 @@
 #include "rigid/joint_rows.hpp"
 #include "rigid/rigid_system.hpp"
 #include "engine/core/format.hpp"
+#include "engine/core/task_system.hpp"
 
 namespace sinew {
 
@@ -45,9 +46,19 @@ struct JointSet::Impl {
     std::vector<std::uint32_t> moving;    // bodies of the active joints that can move, each once
     std::vector<std::uint8_t> mark;       // by body slot, scratch for `moving`
     std::vector<Vec3> pv, pw;             // pseudo-velocities of the projection pass, by body slot
-    JointPointSolve points;               // soft step: the point blocks solved together after the sweeps
-    const std::vector<std::uint32_t> none{};  // no joints, for the other solvers
-    std::vector<std::uint32_t> point_generations;  // of the joints in `points`, as prepared
+    // Soft step: the active joints in groups that share no movable body (connected through the bodies
+    // they move), each group's joints in slot order, groups in the order of their first joint. Groups
+    // are solved independently, on the workers of the rigid system's region (`region`): each group's
+    // sweeps and its exact point solve touch only its own bodies, so any schedule gives the bits of the
+    // one-thread loop over the groups.
+    std::vector<std::uint32_t> group_start, group_joints;
+    std::vector<std::unique_ptr<JointPointSolve>> group_points;  // per group: its point blocks solved together after its sweeps
+    std::vector<std::uint32_t> point_generation_start;  // per group: where its joints' generations start in...
+    std::vector<std::uint32_t> point_generations;       // ...the generations of the joints in the point solves, as prepared
+    std::vector<std::uint32_t> group_of_body;           // by body slot, scratch of grouping (union-find parents)
+    std::vector<std::uint32_t> mark_group, joint_group, group_fill;  // scratch of grouping
+    std::vector<std::uint32_t> body_zero;  // by body slot, all zero between uses: JointPointSolve::prepare's scratch
+    ParallelRegion* region = nullptr;
     Softness point_bias;                  // of the point blocks in that solve's biased passes
 
     // Sorted (min slot, max slot) keys of joints that filter contacts, rebuilt on the first query after
@@ -409,6 +420,64 @@ void bound_mass_ratio(JointRows& r, Real bound) {
 
 }  // namespace
 
+// The active joints grouped by the movable bodies they connect (union-find over body slots), for the soft
+// step's solve (Impl::group_start); each group's exact point solve prepared.
+void JointSet::group_joints(Impl& m, std::size_t body_slots, ParallelRegion* region) {
+    std::vector<std::uint32_t>& parent = m.group_of_body;
+    if (parent.size() < body_slots) parent.resize(body_slots);
+    for (std::uint32_t b : m.moving) parent[b] = b;
+    const auto find = [&](std::uint32_t b) {
+        while (parent[b] != b) b = parent[b] = parent[parent[b]];
+        return b;
+    };
+    for (std::uint32_t s : m.active) {
+        const JointRows& r = m.rows[s];
+        if (r.ma != 0 && r.mb != 0) {
+            const std::uint32_t ra = find(r.a), rb = find(r.b);
+            if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        }
+    }
+    // Groups numbered in the order of their first joint; the joints sorted into them by a counting sort.
+    constexpr std::uint32_t kNone = ~0u;
+    std::vector<std::uint32_t>& group_of_root = m.mark_group;
+    if (group_of_root.size() < body_slots) group_of_root.assign(body_slots, kNone);
+    std::vector<std::uint32_t>& group = m.joint_group;
+    group.clear();
+    std::vector<std::uint32_t>& count = m.group_start;
+    count.assign(1, 0);
+    for (std::uint32_t s : m.active) {
+        const JointRows& r = m.rows[s];
+        const std::uint32_t root = find(r.ma != 0 ? r.a : r.b);
+        if (group_of_root[root] == kNone) {
+            group_of_root[root] = std::uint32_t(count.size() - 1);
+            count.push_back(0);
+        }
+        group.push_back(group_of_root[root]);
+        ++count[group.back() + 1];
+    }
+    for (std::uint32_t b : m.moving) group_of_root[b] = kNone;  // scratch back to unset
+    for (std::size_t g = 1; g < count.size(); ++g) count[g] += count[g - 1];
+    m.group_joints.resize(m.active.size());
+    std::vector<std::uint32_t>& fill = m.group_fill;
+    fill.assign(count.begin(), count.end() - 1);
+    for (std::size_t k = 0; k < m.active.size(); ++k) m.group_joints[fill[group[k]]++] = m.active[k];
+    const std::size_t groups = count.size() - 1;
+    while (m.group_points.size() < groups) m.group_points.push_back(std::make_unique<JointPointSolve>());
+    if (m.body_zero.size() < body_slots) m.body_zero.resize(body_slots, 0);
+    // Each group's point solve, on the workers (they share no movable body, the scratch's only entries
+    // a prepare touches).
+    for_ranges(groups > 1 ? region : nullptr, groups, 1, [&](std::size_t first, std::size_t last) {
+        for (std::size_t g = first; g < last; ++g)
+            m.group_points[g]->prepare(m.joints, m.rows, m.group_joints.data() + count[g], count[g + 1] - count[g], m.body_zero);
+    });
+    m.point_generation_start.assign(1, 0);
+    m.point_generations.clear();
+    for (std::size_t g = 0; g < groups; ++g) {
+        for (std::uint32_t s : m.group_points[g]->slots()) m.point_generations.push_back(m.slots.generation(s));
+        m.point_generation_start.push_back(std::uint32_t(m.point_generations.size()));
+    }
+}
+
 void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();
@@ -418,10 +487,10 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     m.h = h;
     m.active.clear();
     m.moving.clear();
-    if (m.slots.count() == 0) {  // nothing to prepare (and no per-body scratch to clear)
-        m.points.prepare(m.joints, m.rows, m.none, 0);
-        return;
-    }
+    m.group_start.clear();
+    m.group_joints.clear();
+    m.region = nullptr;
+    if (m.slots.count() == 0) return;  // nothing to prepare (and no per-body scratch to clear)
     // How position error is removed this step:
     // - Soft (a sub-stepping solver asked for soft joints): Catto 2011 soft rows in its biased passes.
     // - Projection (sequential impulses with split impulses and warm starting, the default): the velocity
@@ -498,12 +567,13 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
                 m.moving.push_back(b);
             }
     }
-    // The soft step solves the point blocks exactly after its sweeps. The other solvers keep their sweeps
-    // alone (not tried with the exact solve): their rows see bounded mass ratios (bound_mass_ratio), which
-    // the exact solve would take as the bodies' masses.
-    m.points.prepare(m.joints, m.rows, m.correction == Impl::Correction::Soft ? m.active : m.none, st.x.size());
-    m.point_generations.clear();
-    for (std::uint32_t s : m.points.slots()) m.point_generations.push_back(m.slots.generation(s));
+    // The soft step solves the point blocks exactly after its sweeps, group by group. The other solvers
+    // keep their sweeps alone (not tried with the exact solve): their rows see bounded mass ratios
+    // (bound_mass_ratio), which the exact solve would take as the bodies' masses.
+    if (m.correction == Impl::Correction::Soft) {
+        m.region = &sys.region();
+        group_joints(m, st.x.size(), m.region);
+    }
     if (m.correction == Impl::Correction::Projection) {
         m.pv.assign(st.x.size(), Vec3::Zero());
         m.pw.assign(st.x.size(), Vec3::Zero());
@@ -538,9 +608,21 @@ void solve_joint(const JointData& j, JointImpulses& acc, const JointRows& r, con
 void JointSet::warm_start(const RigidSystem& sys, const BodyVelocities& vel) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();
-    RowPass pass{vel, Softness{}, true};
-    for (std::uint32_t s : m.active)
-        if (m.slots.alive(s)) warm_start_joint(m.joints[s], m.rows[s], st, pass);  // skip joints destroyed since prepare()
+    const RowPass pass{vel, Softness{}, true};
+    const auto warm_start_joints = [&](const std::uint32_t* joints, std::size_t count) {
+        RowPass p = pass;
+        for (std::size_t i = 0; i < count; ++i)
+            if (m.slots.alive(joints[i])) warm_start_joint(m.joints[joints[i]], m.rows[joints[i]], st, p);  // skip joints destroyed since prepare()
+    };
+    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    if (groups < 2) {
+        warm_start_joints(m.active.data(), m.active.size());
+        return;
+    }
+    // The soft step's groups share no movable body: each on its own, in slot order.
+    for_ranges(m.region, groups, 1, [&](std::size_t first, std::size_t last) {
+        warm_start_joints(m.group_joints.data() + m.group_start[first], m.group_start[last] - m.group_start[first]);
+    });
 }
 
 void JointSet::positions_advanced(const RigidSystem& sys, const BodyVelocities&, Real) {
@@ -550,26 +632,45 @@ void JointSet::positions_advanced(const RigidSystem& sys, const BodyVelocities&,
     Impl& m = *impl_;
     if (m.correction != Impl::Correction::Soft) return;
     const RigidSystem::State& st = sys.state();
-    for (std::uint32_t s : m.active) {
-        JointRows& r = m.rows[s];
-        r.ia = st.inv_inertia_world[r.a];
-        r.ib = st.inv_inertia_world[r.b];
-    }
+    for_ranges(m.group_start.size() > 2 ? m.region : nullptr, m.active.size(), 256, [&](std::size_t first, std::size_t last) {
+        for (std::size_t k = first; k < last; ++k) {
+            JointRows& r = m.rows[m.active[k]];
+            r.ia = st.inv_inertia_world[r.a];
+            r.ib = st.inv_inertia_world[r.b];
+        }
+    });
 }
 
 void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use_bias) {
     Impl& m = *impl_;
     const RigidSystem::State& st = sys.state();
-    RowPass pass{vel, use_bias ? m.velocity_bias : Softness{}, true};
-    const int sweeps = m.correction == Impl::Correction::Soft ? kSoftSweeps : 1;
-    for (int k = 0; k < sweeps; ++k)
+    const RowPass pass{vel, use_bias ? m.velocity_bias : Softness{}, true};
+    if (m.correction != Impl::Correction::Soft) {
+        RowPass p = pass;
         for (std::uint32_t s : m.active)
-            if (m.slots.alive(s)) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, pass);
-    const std::vector<std::uint32_t>& exact = m.points.slots();
-    if (exact.empty()) return;
-    for (std::size_t k = 0; k < exact.size(); ++k)  // a joint destroyed (or its slot reused) within the step:
-        if (!m.slots.alive(exact[k]) || m.slots.generation(exact[k]) != m.point_generations[k]) return;  // sweeps alone
-    m.points.solve(m.joints, m.rows, st, pass, use_bias ? m.point_bias : Softness{});
+            if (m.slots.alive(s)) solve_joint(m.joints[s], m.joints[s].impulses, m.rows[s], st, p);
+        return;
+    }
+    const Softness point_bias = use_bias ? m.point_bias : Softness{};
+    const auto solve_groups = [&](std::size_t first, std::size_t last) {
+        RowPass p = pass;
+        for (std::size_t g = first; g < last; ++g) {
+            const std::uint32_t* joints = m.group_joints.data() + m.group_start[g];
+            const std::uint32_t count = m.group_start[g + 1] - m.group_start[g];
+            for (int k = 0; k < kSoftSweeps; ++k)
+                for (std::uint32_t i = 0; i < count; ++i)
+                    if (m.slots.alive(joints[i])) solve_joint(m.joints[joints[i]], m.joints[joints[i]].impulses, m.rows[joints[i]], st, p);
+            JointPointSolve& points = *m.group_points[g];
+            const std::vector<std::uint32_t>& exact = points.slots();
+            bool current = !exact.empty();
+            const std::uint32_t* generation = m.point_generations.data() + m.point_generation_start[g];
+            for (std::size_t k = 0; k < exact.size() && current; ++k)  // a joint destroyed (or its slot reused)
+                current = m.slots.alive(exact[k]) && m.slots.generation(exact[k]) == generation[k];  // within the step: sweeps alone
+            if (current) points.solve(m.joints, m.rows, st, p, point_bias);
+        }
+    };
+    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    for_ranges(groups > 1 ? m.region : nullptr, groups, 1, solve_groups);
 }
 
 void JointSet::project_positions(RigidSystem& sys) {

@@ -22,6 +22,7 @@
 
 #include "rigid/constraint_colouring.hpp"
 #include "rigid/constraint_rows.hpp"
+#include "rigid/joint_set.hpp"
 #include "rigid/rigid_solver.hpp"
 #include "rigid/soft_constraint.hpp"
 #include "rigid/wide_float.hpp"
@@ -122,6 +123,8 @@ constexpr int kBatchesPerBlock = 1;
 constexpr int kBodiesPerBlock = 64;
 /// Manifolds from which the solve runs on the workers (below it, on the calling thread alone).
 constexpr std::size_t kParallelManifolds = 128;
+/// Joints from which it does too (the joint set solves its groups of joints on the workers).
+constexpr std::size_t kParallelJoints = 64;
 /// Manifolds per block of islands in the blocked solve (SoftStepSolver::plan_blocks): a block's batches
 /// (about 630 bytes a manifold) and its bodies stay in a core's L2 cache (1 MiB here) through every pass
 /// of the step's sub-steps.
@@ -775,7 +778,8 @@ void SoftStepSolver::in_region(RigidSystem& sys, F&& f) {
     } reset{region_};
     // Helpers only for enough work: waking them costs more than a small scene's whole solve (a cloth
     // over a static ground ran 0.83x as fast on two workers as on one).
-    const TaskSystem* tasks = sys.contacts().size() >= kParallelManifolds ? sys.task_system() : nullptr;
+    const bool enough = sys.contacts().size() >= kParallelManifolds || sys.joints().count() >= kParallelJoints;
+    const TaskSystem* tasks = enough ? sys.task_system() : nullptr;
     sys.region().run(tasks, [&] {
         region_ = &sys.region();
         const std::size_t workers = std::size_t(region_->workers());

@@ -20,7 +20,7 @@ namespace sinew::bench {
 
 namespace {
 
-const char* kDefaultScenes[] = {"pyramid-40", "many-pyramids", "cloth-64", "fem-block-20k", "many-soft-bodies"};
+const char* kDefaultScenes[] = {"pyramid-40", "many-pyramids", "cloth-64", "fem-block-20k", "many-soft-bodies", "many-chains"};
 
 struct ThreadRun {
     std::string scene;
