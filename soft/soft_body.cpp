@@ -61,6 +61,25 @@ bool parse_soft_preconditioner(const std::string& text, SoftPreconditioner& out)
     return false;
 }
 
+namespace {
+constexpr const char* kRelaxationNames[] = {"in-order", "by-colour"};
+static_assert(sizeof(kRelaxationNames) / sizeof(kRelaxationNames[0]) == static_cast<int>(SoftRelaxation::Count), "");
+}  // namespace
+
+const char* soft_relaxation_name(SoftRelaxation r) {
+    const int i = static_cast<int>(r);
+    return i >= 0 && i < static_cast<int>(SoftRelaxation::Count) ? kRelaxationNames[i] : "unknown";
+}
+
+bool parse_soft_relaxation(const std::string& text, SoftRelaxation& out) {
+    for (int i = 0; i < static_cast<int>(SoftRelaxation::Count); ++i)
+        if (text == kRelaxationNames[i]) {
+            out = static_cast<SoftRelaxation>(i);
+            return true;
+        }
+    return false;
+}
+
 bool parse_soft_method(const char* text, SoftMethod& out) {
     for (int i = 0; i < static_cast<int>(SoftMethod::Count); ++i)
         if (std::strcmp(text, kMethodNames[i]) == 0) {

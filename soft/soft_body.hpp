@@ -96,6 +96,16 @@ const char* soft_preconditioner_name(SoftPreconditioner p);
 /// Parses "block-jacobi" or "rest-factor"; false if unknown.
 bool parse_soft_preconditioner(const std::string& text, SoftPreconditioner& out);
 
+/// The order of Verlet's relaxation sweeps over the links (SoftBodyDef::relaxation).
+enum class SoftRelaxation : std::uint8_t {
+    InOrder,   ///< Gauss-Seidel in the builder's order: a pin's pull goes down a cloth in one sweep
+    ByColour,  ///< colour by colour (no two links of a colour share a particle), each colour on the workers
+    Count
+};
+const char* soft_relaxation_name(SoftRelaxation r);
+/// Parses "in-order" or "by-colour"; false if unknown.
+bool parse_soft_relaxation(const std::string& text, SoftRelaxation& out);
+
 struct SoftBodyDef {
     SoftMethod method = SoftMethod::Verlet;
     // geometry (builders in soft/soft_builders.hpp fill these)
@@ -129,6 +139,10 @@ struct SoftBodyDef {
     /// implicit FEM bodies: CG's preconditioner. RestFactor factors the rest shape's system once and turns
     /// it with the nodes (soft/fem_rest_factor.hpp): for stiff solids, where block Jacobi runs to its cap.
     SoftPreconditioner preconditioner = SoftPreconditioner::BlockJacobi;
+    /// Verlet: the order of the relaxation's sweeps over the links. ByColour changes the method's
+    /// results (a sweep carries a pull one link per colour, not down the cloth) and lets a large body's
+    /// sweeps run on the workers (docs/soft-bodies.md, "Verlet by colour").
+    SoftRelaxation relaxation = SoftRelaxation::InOrder;
 
     // material
     Real drag = 0;              ///< velocity damping (1/s): v *= 1/(1 + h drag); Verlet uses it as k_d = h drag
@@ -173,6 +187,9 @@ struct SoftBody {
     std::vector<Link> links;
     std::vector<std::uint32_t> triangles;
     std::vector<LongRangeAttachment> lra;
+    /// Verlet by colour: the links grouped by colour (no two links of a colour share a particle), each
+    /// colour's in ascending order; built on the body's first such step, again if the links change.
+    std::vector<std::uint32_t> colour_start, colour_links;
     std::vector<Attachment> attachments;
     Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
     bool closed_surface = false;  ///< the triangles close a volume (soft-soft contacts know inside from outside)

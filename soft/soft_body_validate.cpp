@@ -68,6 +68,9 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     if (d.iterations < 1 || d.iterations > 10000)
         fail("iterations must be in [1, 10000], got " + std::to_string(d.iterations));
     if (!(d.cg_tolerance > 0 && d.cg_tolerance < 1)) fail("cg_tolerance must be in (0, 1), got " + to_text(d.cg_tolerance));
+    const int relaxation = static_cast<int>(d.relaxation);
+    if (relaxation < 0 || relaxation >= static_cast<int>(SoftRelaxation::Count))
+        fail("relaxation = " + std::to_string(relaxation) + " is not a relaxation order");
     const int preconditioner = static_cast<int>(d.preconditioner);
     if (preconditioner < 0 || preconditioner >= static_cast<int>(SoftPreconditioner::Count))
         fail("preconditioner = " + std::to_string(preconditioner) + " is not a preconditioner");

@@ -346,7 +346,8 @@ void SoftSystem::integrate_velocities(Real h) {
 }
 
 bool SoftSystem::splits_loops(const SoftBody& b) {
-    const bool splits = b.fem || ((b.def.method == SoftMethod::FastMassSpring || b.def.method == SoftMethod::ImplicitEuler) &&
+    const bool splits = b.fem || ((b.def.method == SoftMethod::FastMassSpring || b.def.method == SoftMethod::ImplicitEuler ||
+                                   (b.def.method == SoftMethod::Verlet && b.def.relaxation == SoftRelaxation::ByColour)) &&
                                   !b.solved_by_rows);
     return splits && b.p.size() >= kParallelParticles;
 }

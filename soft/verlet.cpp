@@ -11,6 +11,7 @@
 #include <cmath>
 #include <string>
 
+#include "engine/core/task_system.hpp"
 #include "soft/particle_collision.hpp"
 #include "soft/soft_integrators.hpp"
 
@@ -60,6 +61,52 @@ void relax_links(SoftBody& b, int iteration) {
     for (const Link& l : b.links) relax_link(l, x, w, iteration);
 }
 
+// Greedy colouring of the links in builder order (each link takes the least colour neither end's links
+// have yet: a cloth's structural and shear links take 8-10), kept by colour in ascending link order.
+// Links past the 64th colour (a particle with more than 32 links) go to one last group run on one thread.
+void colour_links(SoftBody& b) {
+    const std::size_t m = b.links.size();
+    std::vector<std::uint64_t> used(b.p.size(), 0);
+    std::vector<std::uint8_t> colour(m);
+    int colours = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+        const Link& l = b.links[j];
+        const std::uint64_t free = ~(used[l.a] | used[l.b]);
+        int c = 64;  // the serial group
+        if (free != 0) {
+            c = 0;
+            while (!((free >> c) & 1u)) ++c;
+            used[l.a] |= std::uint64_t(1) << c;
+            used[l.b] |= std::uint64_t(1) << c;
+        }
+        colour[j] = std::uint8_t(c);
+        colours = std::max(colours, c + 1);
+    }
+    b.colour_start.assign(std::size_t(colours) + 1, 0);
+    for (std::size_t j = 0; j < m; ++j) ++b.colour_start[colour[j] + 1u];
+    for (int c = 0; c < colours; ++c) b.colour_start[std::size_t(c) + 1] += b.colour_start[std::size_t(c)];
+    b.colour_links.resize(m);
+    std::vector<std::uint32_t> fill(b.colour_start.begin(), b.colour_start.end() - 1);
+    for (std::size_t j = 0; j < m; ++j) b.colour_links[fill[colour[j]]++] = std::uint32_t(j);
+}
+
+// One sweep colour by colour. No two links of a colour share a particle, so a colour's links may run in
+// any order or at once: a large body's colours are split among the workers (SoftBody::region), each
+// giving the bits of one thread. The serial group (colour 64) runs last, on this thread.
+void relax_links_by_colour(SoftBody& b, int iteration) {
+    if (b.colour_links.size() != b.links.size() || b.colour_start.empty()) colour_links(b);
+    std::vector<Vec3>& x = b.p.x;
+    const std::vector<Real>& w = b.p.inv_mass;
+    const std::size_t colours = b.colour_start.size() - 1;
+    for (std::size_t c = 0; c < colours; ++c) {
+        const std::uint32_t first = b.colour_start[c], count = b.colour_start[c + 1] - first;
+        ParallelRegion* region = c < 64 && count >= 1024 ? b.region : nullptr;
+        for_ranges(region, count, 256, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t k = begin; k < end; ++k) relax_link(b.links[b.colour_links[first + k]], x, w, iteration);
+        });
+    }
+}
+
 }  // namespace
 
 void predict_verlet(SoftBody& b, Real h) {
@@ -88,8 +135,10 @@ void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
     // the constraints one after another and repeating converges to satisfying all of them; the collision
     // projection inside the loop keeps links from pulling particles back into the colliders).
     const int iterations = std::max(b.def.iterations, 0);
+    const bool by_colour = b.def.relaxation == SoftRelaxation::ByColour;
     for (int it = 0; it < iterations; ++it) {
-        relax_links(b, it);
+        if (by_colour) relax_links_by_colour(b, it);
+        else relax_links(b, it);
         if (collision != nullptr) collision->project_positions(b, h);
         if (!b.lra.empty()) apply_long_range_attachments(b);
     }

@@ -619,6 +619,10 @@ TEST_CASE("C API soft: a stiff cantilever of quadratic tets with the rest-factor
     sinew_cloth_def c = sinew_cloth_def_default();
     CHECK(sinew_soft_create_cloth(w, &cloth, &c, &bad) == SINEW_ERROR_INVALID_ARGUMENT);
     CHECK_THAT(sinew_last_error(), Catch::Contains("rest-factor is for FEM bodies"));
+    sinew_soft_def relax = sinew_soft_def_default();
+    relax.relaxation = static_cast<sinew_soft_relaxation>(7);
+    CHECK(sinew_soft_create_cloth(w, &relax, &c, &bad) == SINEW_ERROR_INVALID_ARGUMENT);
+    CHECK_THAT(sinew_last_error(), Catch::Contains("def->relaxation = 7"));
     int count_after = 0;
     REQUIRE(sinew_world_soft_body_count(w, &count_after) == SINEW_OK);
     CHECK(count_after == 1);

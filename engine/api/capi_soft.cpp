@@ -42,6 +42,9 @@ std::string check_soft_def(const sinew_soft_def& d) {
         return "def->self_collision = " + std::to_string(d.self_collision) + " must be 0 or 1";
     if (d.tet_order != 1 && d.tet_order != 2)
         return "def->tet_order = " + std::to_string(d.tet_order) + " must be 1 (linear tets) or 2 (quadratic tets)";
+    const int relaxation = enum_value(d.relaxation);
+    if (relaxation < SINEW_RELAXATION_IN_ORDER || relaxation > SINEW_RELAXATION_BY_COLOUR)
+        return "def->relaxation = " + std::to_string(relaxation) + " is not a sinew_soft_relaxation";
     const int preconditioner = enum_value(d.preconditioner);
     if (preconditioner < SINEW_PRECONDITIONER_BLOCK_JACOBI || preconditioner > SINEW_PRECONDITIONER_REST_FACTOR)
         return "def->preconditioner = " + std::to_string(preconditioner) + " is not a sinew_soft_preconditioner";
@@ -86,6 +89,7 @@ SoftBodyDef base_def(const sinew_soft_def& d) {
     b.self_collision = d.self_collision == 1;
     b.preconditioner = enum_value(d.preconditioner) == SINEW_PRECONDITIONER_REST_FACTOR ? SoftPreconditioner::RestFactor
                                                                                         : SoftPreconditioner::BlockJacobi;
+    b.relaxation = enum_value(d.relaxation) == SINEW_RELAXATION_BY_COLOUR ? SoftRelaxation::ByColour : SoftRelaxation::InOrder;
     b.user_data = d.user_data;
     return b;
 }
@@ -241,6 +245,7 @@ sinew_soft_def sinew_soft_def_default(void) {
     d.preconditioner = SINEW_PRECONDITIONER_BLOCK_JACOBI;
     d.self_collision = b.self_collision ? 1 : 0;
     d.user_data = 0;
+    d.relaxation = SINEW_RELAXATION_IN_ORDER;
     return d;
 }
 

@@ -308,6 +308,14 @@ typedef enum sinew_soft_preconditioner {
                                               runs to the iteration cap (docs/fem.md) */
 } sinew_soft_preconditioner;
 
+/* The order of Verlet's relaxation sweeps over the links. */
+typedef enum sinew_soft_relaxation {
+    SINEW_RELAXATION_IN_ORDER = 0, /* Gauss-Seidel in the builder's order: a pin's pull goes down a cloth in
+                                      one sweep */
+    SINEW_RELAXATION_BY_COLOUR = 1 /* colour by colour (no two links of a colour share a particle): a large
+                                      body's sweeps run on the workers; the results differ (docs/soft-bodies.md) */
+} sinew_soft_relaxation;
+
 /* Link material by kind. Mass-spring methods read stretch/shear/bend/damping; Verlet reads fraction. */
 typedef struct sinew_soft_links {
     float stretch;  /* N/m, >= 0, structural links (default 1000) */
@@ -339,6 +347,7 @@ typedef struct sinew_soft_def {
     int self_collision;         /* 0 or 1: the particles meet the body's own triangles (a cloth folding on
                                    itself; default 0) */
     uint64_t user_data;         /* yours, returned by sinew_soft_user_data() */
+    sinew_soft_relaxation relaxation; /* Verlet bodies (default SINEW_RELAXATION_IN_ORDER) */
 } sinew_soft_def;
 
 /* Corners of a cloth grid to pin, combined with |: node (i, j) with i in {0, nx-1}, j in {0, ny-1}. */

@@ -57,7 +57,8 @@ Json soft_body_json(const RigidSystem& rigid, const SoftBody& b, std::uint32_t s
                                 {"isotropic_blend", number(d.isotropic_blend)},
                                 {"implicit_lambda", number(d.implicit_lambda)},
                                 {"long_range_attachments", d.long_range_attachments},
-                                {"preconditioner", soft_preconditioner_name(d.preconditioner)}});
+                                {"preconditioner", soft_preconditioner_name(d.preconditioner)},
+                                {"relaxation", soft_relaxation_name(d.relaxation)}});
     j["material"] = Json::object({{"drag", number(d.drag)},
                                   {"pressure", number(d.pressure)},
                                   {"friction", number(d.friction)},

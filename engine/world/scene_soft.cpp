@@ -29,7 +29,8 @@ LinkMaterial parse_link_material(const Node& body) {
 void parse_solver(const Node& body, SoftBodyDef& d) {
     std::optional<Node> n = body.find("solver");
     if (!n) return;
-    n->allow_keys({"iterations", "cg_tolerance", "isotropic_blend", "implicit_lambda", "long_range_attachments", "preconditioner"});
+    n->allow_keys({"iterations", "cg_tolerance", "isotropic_blend", "implicit_lambda", "long_range_attachments", "preconditioner",
+                   "relaxation"});
     d.iterations = read_int(*n, "iterations", d.iterations, 1, 10000);
     d.cg_tolerance = read_real(*n, "cg_tolerance", d.cg_tolerance, Range::Positive);
     if (d.cg_tolerance >= 1) n->get("cg_tolerance").fail("cg_tolerance must be < 1");
@@ -41,6 +42,10 @@ void parse_solver(const Node& body, SoftBodyDef& d) {
     if (auto p = n->find("preconditioner")) {
         if (!p->json().is_string() || !parse_soft_preconditioner(p->json().get<std::string>(), d.preconditioner))
             p->fail("preconditioner must be \"block-jacobi\" or \"rest-factor\", got " + describe(p->json()));
+    }
+    if (auto r = n->find("relaxation")) {
+        if (!r->json().is_string() || !parse_soft_relaxation(r->json().get<std::string>(), d.relaxation))
+            r->fail("relaxation must be \"in-order\" or \"by-colour\", got " + describe(r->json()));
     }
 }
 

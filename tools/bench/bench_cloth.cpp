@@ -118,6 +118,7 @@ struct SinewSetting {
     int iterations = 10;
     bool lra = false;
     double stiffness = 0;  ///< N/m for the spring methods
+    SoftRelaxation relaxation = SoftRelaxation::InOrder;  ///< Verlet's sweep order
 };
 
 std::string compact(double k) {
@@ -133,6 +134,7 @@ SoftBodyDef build_body(const ClothScene& s, const SinewSetting& v) {
     base.method = v.method;
     base.iterations = v.iterations;
     base.long_range_attachments = v.lra;
+    base.relaxation = v.relaxation;
     base.pressure = Real(s.pressure);
     base.friction = s.friction;
     base.thickness = s.thickness;
@@ -180,7 +182,8 @@ double semi_implicit_stiffness(const ClothScene& s) {
 
 // Stiffness and iteration choices:
 //  - Verlet: stiffness fraction 1 (rigid links, as Bullet's kLST = 1), 10 and 20 relaxations, with and
-//    without long-range attachments where something is pinned (Kim et al. 2012);
+//    without long-range attachments where something is pinned (Kim et al. 2012); 10 relaxations by
+//    colour (+colour: each colour's links independent, a large body's split among the workers);
 //  - semi-implicit Euler: the stability bound above (any stiffer and it explodes; this soft, the hanging
 //    cloth stretches by several times: the method's known failure at game time steps);
 //  - implicit Euler and fast mass-spring: k = 1e4 N/m. A corner link of the hanging 1 kg cloth carries at
@@ -197,6 +200,10 @@ std::vector<SinewSetting> sinew_settings(const ClothScene& s) {
         if (s.pin_corners)
             out.push_back({"sinew-verlet", "it" + std::to_string(it) + "+lra", SoftMethod::Verlet, it, true, 0});
     }
+    // The sweeps by colour (SoftRelaxation::ByColour), at 10 iterations.
+    out.push_back({"sinew-verlet", "it10+colour", SoftMethod::Verlet, 10, false, 0, SoftRelaxation::ByColour});
+    if (s.pin_corners)
+        out.push_back({"sinew-verlet", "it10+lra+colour", SoftMethod::Verlet, 10, true, 0, SoftRelaxation::ByColour});
     const double k_semi = semi_implicit_stiffness(s);
     out.push_back({"sinew-semi-implicit", "k" + compact(k_semi), SoftMethod::SemiImplicitEuler, 1, false, k_semi});
     struct KI {
