@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/Sparse>
@@ -44,6 +45,18 @@ class OrderedLdlt : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Ei
 public:
     void factorize_ordered(const Eigen::SparseMatrix<double>& ap) { this->template factorize_preordered<true>(ap); }
 };
+
+// Runs f when it goes out of scope, a throw included: shared scratch is put back to all-zero however a
+// prepare() ends (the groups of a joint set share it).
+template <class F>
+struct OnExit {
+    F f;
+    ~OnExit() { f(); }
+};
+template <class F>
+OnExit<F> on_exit(F f) {
+    return OnExit<F>{std::move(f)};
+}
 
 }  // namespace
 
@@ -90,31 +103,38 @@ void JointPointSolve::prepare(const std::vector<JointData>& joints, const std::v
     // left to the sweeps alone; the rest are solved.
     // Only the movable bodies' entries of the scratch are touched: the groups of a joint set prepare
     // at once on different workers, and share no movable body.
-    std::vector<std::uint32_t>& joints_on = body_scratch;  // joints per movable body, zero again below
+    std::vector<std::uint32_t>& joints_on = body_scratch;  // joints per movable body, zero again on return
     const std::uint32_t* const end = active + count;
-    for (const std::uint32_t* s = active; s != end; ++s) {
-        if (!has_point_block(joints[*s].def.type)) continue;
-        const JointRows& r = rows[*s];
-        if (r.ma != 0) ++joints_on[r.a];
-        if (r.mb != 0) ++joints_on[r.b];
-    }
-    for (const std::uint32_t* s = active; s != end; ++s) {
-        if (!has_point_block(joints[*s].def.type)) continue;
-        const JointRows& r = rows[*s];
-        if ((r.ma != 0 && joints_on[r.a] > kMaxJointsPerBody) || (r.mb != 0 && joints_on[r.b] > kMaxJointsPerBody))
-            continue;
-        m.slots.push_back(*s);
-    }
-    for (const std::uint32_t* s = active; s != end; ++s) {
-        if (rows[*s].ma != 0) joints_on[rows[*s].a] = 0;
-        if (rows[*s].mb != 0) joints_on[rows[*s].b] = 0;
+    {
+        const auto zero_again = on_exit([&] {
+            for (const std::uint32_t* s = active; s != end; ++s) {
+                if (rows[*s].ma != 0) joints_on[rows[*s].a] = 0;
+                if (rows[*s].mb != 0) joints_on[rows[*s].b] = 0;
+            }
+        });
+        for (const std::uint32_t* s = active; s != end; ++s) {
+            if (!has_point_block(joints[*s].def.type)) continue;
+            const JointRows& r = rows[*s];
+            if (r.ma != 0) ++joints_on[r.a];
+            if (r.mb != 0) ++joints_on[r.b];
+        }
+        for (const std::uint32_t* s = active; s != end; ++s) {
+            if (!has_point_block(joints[*s].def.type)) continue;
+            const JointRows& r = rows[*s];
+            if ((r.ma != 0 && joints_on[r.a] > kMaxJointsPerBody) || (r.mb != 0 && joints_on[r.b] > kMaxJointsPerBody))
+                continue;
+            m.slots.push_back(*s);
+        }
     }
     m.key.clear();
     for (std::uint32_t s : m.slots) {
         const JointRows& r = rows[s];
         m.key.insert(m.key.end(), {s, r.ma != 0 ? r.a : ~0u, r.mb != 0 ? r.b : ~0u});
     }
-    if (m.slots.empty() || m.key != m.last_key) build_pattern(m, rows, body_scratch);
+    if (m.slots.empty() || m.key != m.last_key) {
+        m.last_key.clear();  // a build that throws leaves no key to match
+        build_pattern(m, rows, body_scratch);
+    }
     m.last_key.swap(m.key);
     if (m.slots.empty()) return;
     for (std::size_t p = 0; p < m.bodies.size(); ++p) {
@@ -136,6 +156,9 @@ void JointPointSolve::build_pattern(Impl& m, const std::vector<JointRows>& rows,
     // Movable bodies (in the order of their first end) and their ends, grouped by body (counting sort).
     // place[b] is 1 + b's index in `bodies`, 0 for none, and 0 again at the end.
     std::vector<std::uint32_t>& place_of = body_scratch;
+    const auto zero_again = on_exit([&] {
+        for (std::uint32_t b : m.bodies) place_of[b] = 0;
+    });
     std::vector<std::uint32_t>& count = m.count;  // reused from step to step
     count.clear();
     for (std::uint32_t k = 0; k < n; ++k) {
@@ -164,7 +187,6 @@ void JointPointSolve::build_pattern(Impl& m, const std::vector<JointRows>& rows,
             m.ends[m.body_first[place] + count[place]++] = {k, side ? 1.0 : -1.0};
         }
     }
-    for (std::uint32_t b : m.bodies) place_of[b] = 0;
     // The pattern: every pair of joints sharing a movable body, their 3x3 blocks, and each joint's own.
     std::vector<Eigen::Triplet<double>>& pattern = m.pattern;
     pattern.clear();

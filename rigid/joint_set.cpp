@@ -12,6 +12,7 @@
 #include "rigid/joint_point_solve.hpp"
 #include "rigid/joint_rows.hpp"
 #include "rigid/rigid_system.hpp"
+#include "engine/core/bucket_sort.hpp"
 #include "engine/core/format.hpp"
 #include "engine/core/task_system.hpp"
 
@@ -394,6 +395,7 @@ void JointSet::set_motor(JointId id, bool enable, Real speed, Real max_force) {
 }
 
 bool JointSet::active() const { return !impl_->active.empty(); }
+std::size_t JointSet::active_count() const { return impl_->active.size(); }
 
 namespace {
 
@@ -441,27 +443,26 @@ void JointSet::group_joints(Impl& m, std::size_t body_slots, ParallelRegion* reg
     constexpr std::uint32_t kNone = ~0u;
     std::vector<std::uint32_t>& group_of_root = m.mark_group;
     if (group_of_root.size() < body_slots) group_of_root.assign(body_slots, kNone);
-    std::vector<std::uint32_t>& group = m.joint_group;
+    struct Unset {  // the scratch back to unset however this ends (a throw included)
+        std::vector<std::uint32_t>& of_root;
+        const std::vector<std::uint32_t>& roots;
+        ~Unset() {
+            for (std::uint32_t b : roots) of_root[b] = ~0u;
+        }
+    } unset{group_of_root, m.moving};
+    std::vector<std::uint32_t>& group = m.joint_group;  // per active joint
     group.clear();
-    std::vector<std::uint32_t>& count = m.group_start;
-    count.assign(1, 0);
+    std::uint32_t groups_found = 0;
     for (std::uint32_t s : m.active) {
         const JointRows& r = m.rows[s];
         const std::uint32_t root = find(r.ma != 0 ? r.a : r.b);
-        if (group_of_root[root] == kNone) {
-            group_of_root[root] = std::uint32_t(count.size() - 1);
-            count.push_back(0);
-        }
+        if (group_of_root[root] == kNone) group_of_root[root] = groups_found++;
         group.push_back(group_of_root[root]);
-        ++count[group.back() + 1];
     }
-    for (std::uint32_t b : m.moving) group_of_root[b] = kNone;  // scratch back to unset
-    for (std::size_t g = 1; g < count.size(); ++g) count[g] += count[g - 1];
-    m.group_joints.resize(m.active.size());
-    std::vector<std::uint32_t>& fill = m.group_fill;
-    fill.assign(count.begin(), count.end() - 1);
-    for (std::size_t k = 0; k < m.active.size(); ++k) m.group_joints[fill[group[k]]++] = m.active[k];
-    const std::size_t groups = count.size() - 1;
+    std::vector<std::uint32_t>& count = m.group_start;
+    bucket_sort(m.active.size(), groups_found, [&](std::size_t k) { return group[k]; }, count, m.group_joints, m.group_fill);
+    for (std::uint32_t& k : m.group_joints) k = m.active[k];  // the joints' slots
+    const std::size_t groups = groups_found;
     while (m.group_points.size() < groups) m.group_points.push_back(std::make_unique<JointPointSolve>());
     if (m.body_zero.size() < body_slots) m.body_zero.resize(body_slots, 0);
     // Each group's point solve, on the workers (they share no movable body, the scratch's only entries
@@ -632,7 +633,8 @@ void JointSet::positions_advanced(const RigidSystem& sys, const BodyVelocities&,
     Impl& m = *impl_;
     if (m.correction != Impl::Correction::Soft) return;
     const RigidSystem::State& st = sys.state();
-    for_ranges(m.group_start.size() > 2 ? m.region : nullptr, m.active.size(), 256, [&](std::size_t first, std::size_t last) {
+    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    for_ranges(groups > 1 ? m.region : nullptr, m.active.size(), 256, [&](std::size_t first, std::size_t last) {
         for (std::size_t k = first; k < last; ++k) {
             JointRows& r = m.rows[m.active[k]];
             r.ia = st.inv_inertia_world[r.a];

@@ -87,6 +87,8 @@ public:
     void finish(RigidSystem& sys, Real h) override;
     /// Whether prepare() found a joint with a moving body.
     bool active() const override;
+    /// How many joints the last prepare() found with a moving body (not asleep, disabled or static).
+    std::size_t active_count() const;
     /// Joints that broke in the last finish().
     const std::vector<JointId>& broken() const;
 

@@ -123,7 +123,8 @@ constexpr int kBatchesPerBlock = 1;
 constexpr int kBodiesPerBlock = 64;
 /// Manifolds from which the solve runs on the workers (below it, on the calling thread alone).
 constexpr std::size_t kParallelManifolds = 128;
-/// Joints from which it does too (the joint set solves its groups of joints on the workers).
+/// Joints from which it does too (the joint set solves its groups of joints on the workers): those the
+/// last step prepared with a moving body, so idle joints (asleep, static) wake no helper.
 constexpr std::size_t kParallelJoints = 64;
 /// Manifolds per block of islands in the blocked solve (SoftStepSolver::plan_blocks): a block's batches
 /// (about 630 bytes a manifold) and its bodies stay in a core's L2 cache (1 MiB here) through every pass
@@ -778,7 +779,7 @@ void SoftStepSolver::in_region(RigidSystem& sys, F&& f) {
     } reset{region_};
     // Helpers only for enough work: waking them costs more than a small scene's whole solve (a cloth
     // over a static ground ran 0.83x as fast on two workers as on one).
-    const bool enough = sys.contacts().size() >= kParallelManifolds || sys.joints().count() >= kParallelJoints;
+    const bool enough = sys.contacts().size() >= kParallelManifolds || sys.joints().active_count() >= kParallelJoints;
     const TaskSystem* tasks = enough ? sys.task_system() : nullptr;
     sys.region().run(tasks, [&] {
         region_ = &sys.region();

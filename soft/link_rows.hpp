@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "engine/core/bucket_sort.hpp"
+
 namespace sinew {
 
 /// Compressed rows of link ends: entry[start[r] .. start[r+1]) are the ends at row r, in ascending order of
@@ -18,18 +20,7 @@ struct LinkRows {
     /// end that has none (a pinned particle).
     template <class RowOf>
     void build(std::size_t rows, std::size_t links, RowOf&& row_of) {
-        start.assign(rows + 1, 0);
-        for (std::size_t e = 0; e < 2 * links; ++e) {
-            const long r = long(row_of(e));
-            if (r >= 0) ++start[std::size_t(r) + 1];
-        }
-        for (std::size_t r = 0; r < rows; ++r) start[r + 1] += start[r];
-        entry.resize(start[rows]);
-        fill_.assign(start.begin(), start.end() - 1);
-        for (std::size_t e = 0; e < 2 * links; ++e) {
-            const long r = long(row_of(e));
-            if (r >= 0) entry[fill_[std::size_t(r)]++] = std::uint32_t(e);
-        }
+        bucket_sort(2 * links, rows, row_of, start, entry, fill_);
     }
     void clear() { start.clear(), entry.clear(); }
     bool built_for(std::size_t rows) const { return start.size() == rows + 1; }

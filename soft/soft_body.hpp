@@ -188,8 +188,9 @@ struct SoftBody {
     std::vector<std::uint32_t> triangles;
     std::vector<LongRangeAttachment> lra;
     /// Verlet by colour: the links grouped by colour (no two links of a colour share a particle), each
-    /// colour's in ascending order; built on the body's first such step, again if the links change.
-    std::vector<std::uint32_t> colour_start, colour_links;
+    /// colour's in ascending order, and the links' ends they were built for (2 per link): built on the
+    /// body's first such step, again whenever a link's ends change.
+    std::vector<std::uint32_t> colour_start, colour_links, coloured_ends;
     std::vector<Attachment> attachments;
     Real rest_volume = 0;       ///< m^3 of the closed surface at creation (0 if not closed)
     bool closed_surface = false;  ///< the triangles close a volume (soft-soft contacts know inside from outside)

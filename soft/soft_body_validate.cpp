@@ -71,6 +71,8 @@ void validate_soft_body_def(const SoftBodyDef& d) {
     const int relaxation = static_cast<int>(d.relaxation);
     if (relaxation < 0 || relaxation >= static_cast<int>(SoftRelaxation::Count))
         fail("relaxation = " + std::to_string(relaxation) + " is not a relaxation order");
+    if (d.relaxation == SoftRelaxation::ByColour && d.method != SoftMethod::Verlet)
+        fail("relaxation by-colour is for Verlet bodies (method " + std::string(soft_method_name(d.method)) + ")");
     const int preconditioner = static_cast<int>(d.preconditioner);
     if (preconditioner < 0 || preconditioner >= static_cast<int>(SoftPreconditioner::Count))
         fail("preconditioner = " + std::to_string(preconditioner) + " is not a preconditioner");

@@ -411,6 +411,18 @@ void SoftSystem::integrate_velocities_in_region(Real h) {
     });
 }
 
+void SoftSystem::wake_into_step(SoftBody& b, Real h) {
+    b.sleep_timer = 0;
+    b.region = &region_;  // on the calling thread
+    begin_step(b, h);
+}
+
+void SoftSystem::collect_stepping_slots() {
+    stage_slots_.clear();
+    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
+        if (slots_.alive(s) && bodies_[s].stepping) stage_slots_.push_back(s);
+}
+
 void SoftSystem::begin_step(SoftBody& b, Real h) {
     b.awake = true;
     b.stepping = true;
@@ -451,9 +463,7 @@ void SoftSystem::wake_touched_by_soft_bodies(Real h) {
             if (!moving_boxes_[t].valid() || !moving_boxes_[t].overlaps(box) ||
                 !SoftContactPass::may_touch(bodies_[t], t, b, s))
                 continue;
-            b.sleep_timer = 0;
-            b.region = &region_;
-            begin_step(b, h);
+            wake_into_step(b, h);
             break;
         }
     }
@@ -472,9 +482,7 @@ void SoftSystem::detect_collisions(Real h) {
             if (b.meets_colliders_through_proxy || b.meets_soft_bodies_only ||
                 !touched_by_moving_collider(bounds(s), b.def.filter, colliders_, settings_.sleep_velocity))
                 continue;
-            b.sleep_timer = 0;
-            b.region = &region_;
-            begin_step(b, h);
+            wake_into_step(b, h);
         }
         stage_slots_.push_back(s);
     }
@@ -522,9 +530,7 @@ void SoftSystem::solve_velocities(Real h) {
 }
 
 void SoftSystem::solve_bodies_in_region(Real h) {
-    stage_slots_.clear();
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (slots_.alive(s) && bodies_[s].stepping) stage_slots_.push_back(s);
+    collect_stepping_slots();
     for_bodies(stage_slots_, [&](std::uint32_t s) {
         SoftBody& b = bodies_[s];
         Particles& p = b.p;
@@ -603,9 +609,7 @@ void SoftSystem::integrate_positions(Real h) {
 
 void SoftSystem::integrate_positions_in_region(Real h) {
     const Real fast = Real(kBlowUpSpeed * kBlowUpSpeed);
-    stage_slots_.clear();
-    for (std::uint32_t s = 0; s < bodies_.size(); ++s)
-        if (slots_.alive(s) && bodies_[s].stepping) stage_slots_.push_back(s);
+    collect_stepping_slots();
     if (first_bad_.size() < bodies_.size()) first_bad_.resize(bodies_.size());
     for_bodies(stage_slots_, [&](std::uint32_t s) {
         SoftBody& b = bodies_[s];

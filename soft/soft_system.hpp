@@ -157,6 +157,10 @@ private:
     void for_bodies(const std::vector<std::uint32_t>& slots, Fn&& fn);
     /// IntegrateVelocities for body b (awake, or woken): its method's prediction, x_n kept in x.
     void begin_step(SoftBody& b, Real h);
+    /// A sleeping body woken during the step (on the calling thread): its sleep timer reset, then begin_step.
+    void wake_into_step(SoftBody& b, Real h);
+    /// stage_slots_ = the alive bodies stepping this (sub-)step, ascending.
+    void collect_stepping_slots();
     void detect_collisions(Real h);
     /// DetectCollisions: sleeping bodies a moving soft body reaches wake and take this step's forces.
     void wake_touched_by_soft_bodies(Real h);

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <string>
 
+#include "engine/core/bucket_sort.hpp"
 #include "engine/core/task_system.hpp"
 #include "soft/particle_collision.hpp"
 #include "soft/soft_integrators.hpp"
@@ -66,6 +67,8 @@ void relax_links(SoftBody& b, int iteration) {
 // Links past the 64th colour (a particle with more than 32 links) go to one last group run on one thread.
 void colour_links(SoftBody& b) {
     const std::size_t m = b.links.size();
+    b.coloured_ends.resize(2 * m);
+    for (std::size_t j = 0; j < m; ++j) b.coloured_ends[2 * j] = b.links[j].a, b.coloured_ends[2 * j + 1] = b.links[j].b;
     std::vector<std::uint64_t> used(b.p.size(), 0);
     std::vector<std::uint8_t> colour(m);
     int colours = 0;
@@ -82,19 +85,24 @@ void colour_links(SoftBody& b) {
         colour[j] = std::uint8_t(c);
         colours = std::max(colours, c + 1);
     }
-    b.colour_start.assign(std::size_t(colours) + 1, 0);
-    for (std::size_t j = 0; j < m; ++j) ++b.colour_start[colour[j] + 1u];
-    for (int c = 0; c < colours; ++c) b.colour_start[std::size_t(c) + 1] += b.colour_start[std::size_t(c)];
-    b.colour_links.resize(m);
-    std::vector<std::uint32_t> fill(b.colour_start.begin(), b.colour_start.end() - 1);
-    for (std::size_t j = 0; j < m; ++j) b.colour_links[fill[colour[j]]++] = std::uint32_t(j);
+    std::vector<std::uint32_t> fill;
+    bucket_sort(m, std::size_t(colours), [&](std::size_t j) { return colour[j]; }, b.colour_start, b.colour_links, fill);
 }
 
 // One sweep colour by colour. No two links of a colour share a particle, so a colour's links may run in
 // any order or at once: a large body's colours are split among the workers (SoftBody::region), each
 // giving the bits of one thread. The serial group (colour 64) runs last, on this thread.
+// Whether the colouring was built for the body's links as they are now (a link's ends may have been
+// edited between steps; two links of a colour sharing a particle would race on the workers).
+bool colouring_current(const SoftBody& b) {
+    const std::size_t m = b.links.size();
+    if (b.colour_start.empty() || b.colour_links.size() != m || b.coloured_ends.size() != 2 * m) return false;
+    for (std::size_t j = 0; j < m; ++j)
+        if (b.coloured_ends[2 * j] != b.links[j].a || b.coloured_ends[2 * j + 1] != b.links[j].b) return false;
+    return true;
+}
+
 void relax_links_by_colour(SoftBody& b, int iteration) {
-    if (b.colour_links.size() != b.links.size() || b.colour_start.empty()) colour_links(b);
     std::vector<Vec3>& x = b.p.x;
     const std::vector<Real>& w = b.p.inv_mass;
     const std::size_t colours = b.colour_start.size() - 1;
@@ -136,6 +144,7 @@ void relax_verlet(SoftBody& b, Real h, ParticleCollision* collision) {
     // projection inside the loop keeps links from pulling particles back into the colliders).
     const int iterations = std::max(b.def.iterations, 0);
     const bool by_colour = b.def.relaxation == SoftRelaxation::ByColour;
+    if (by_colour && !colouring_current(b)) colour_links(b);  // once a step: one pass over the ends
     for (int it = 0; it < iterations; ++it) {
         if (by_colour) relax_links_by_colour(b, it);
         else relax_links(b, it);

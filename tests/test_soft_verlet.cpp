@@ -407,6 +407,24 @@ TEST_CASE("verlet by colour: every link in one colour of links that share no par
         }
     }
     CHECK(std::count(seen.begin(), seen.end(), 1) == std::ptrdiff_t(seen.size()));
+    // A link's end edited between steps: the next step colours the links again (two links of a colour on
+    // one particle would race on the workers).
+    const std::uint32_t moved = cloth.colour_links[cloth.colour_start[1]];
+    cloth.links[moved].b = cloth.links[cloth.colour_links[0]].a;
+    step_verlet(cloth, kH, nullptr);
+    for (std::size_t c = 0; c + 1 < cloth.colour_start.size(); ++c) {
+        std::vector<int> touched(cloth.p.size(), 0);
+        for (std::uint32_t k = cloth.colour_start[c]; k < cloth.colour_start[c + 1]; ++k) {
+            CHECK(++touched[cloth.links[cloth.colour_links[k]].a] == 1);
+            CHECK(++touched[cloth.links[cloth.colour_links[k]].b] == 1);
+        }
+    }
+    // Another method is refused by colour, naming it.
+    SoftSystem system;
+    SoftBodyDef implicit = hanging_cloth(4, 10, false);
+    implicit.method = SoftMethod::ImplicitEuler;
+    implicit.relaxation = SoftRelaxation::ByColour;
+    CHECK_THROWS_WITH(system.create_body(implicit), Catch::Contains("relaxation by-colour is for Verlet bodies (method implicit)"));
     // The converged reference of the in-order test above: the inextensible 2 m rope, tip 2 m below the
     // pin, to 0.1% after 200 sweeps a step. By colour a sweep carries the pin's pull one link per colour
     // (two for a rope), not down the rope, so the residual at 10 sweeps is larger: printed, not asserted.

@@ -201,6 +201,24 @@ std::string determinism_scene(bool sleeping, int pyramid_rows = 4) {
       "coupling": {"strategy": "two-way"}})";
 }
 
+// A host's task system: a thread pool behind callbacks that count the tasks enqueued (one host at a time).
+struct CountingHost {
+    static std::atomic<long>& count() {
+        static std::atomic<long> tasks{0};
+        return tasks;
+    }
+    ThreadPool pool;
+    TaskSystem tasks;
+    explicit CountingHost(int workers) : pool(workers), tasks(pool.task_system()) {
+        count() = 0;
+        tasks.enqueue = [](TaskFn fn, int n, int min_range, void* ctx, void* p) -> void* {
+            ++count();
+            return static_cast<ThreadPool*>(p)->task_system().enqueue(fn, n, min_range, ctx, p);
+        };
+    }
+    long enqueued() const { return count(); }
+};
+
 }  // namespace
 
 // Issue 18, item 3 (before any threading): the same scene in two worlds alive at once (different
@@ -245,20 +263,14 @@ TEST_CASE("the determinism scene ends bit-identical on 1, 2, 3, 4 and 8 workers"
     for (int workers : {1, 2, 3, 4, 8}) {
         INFO(workers << " workers");
         // The world's own pool for 2, a host's (a pool behind callbacks that count the tasks) for others.
-        static std::atomic<long> tasks{0};
-        ThreadPool host(workers);
-        TaskSystem counting = host.task_system();
-        counting.enqueue = [](TaskFn fn, int count, int min_range, void* ctx, void* pool) -> void* {
-            ++tasks;
-            return static_cast<ThreadPool*>(pool)->task_system().enqueue(fn, count, min_range, ctx, pool);
-        };
-        tasks = 0;
+        CountingHost host(workers);
+        const TaskSystem& counting = host.tasks;
         const std::unique_ptr<World> world = build_world(desc);
         if (workers == 2) world->set_threads(workers);
         else if (workers > 1) world->set_threads(1, counting);
         REQUIRE(world->workers() == workers);
         for (int s = 0; s < 90; ++s) world->step();
-        if (workers > 2) CHECK(tasks >= 90 * (workers - 1));  // at least one region a step had helpers
+        if (workers > 2) CHECK(host.enqueued() >= 90 * (workers - 1));  // at least one region a step had helpers
         REQUIRE(world->faults().empty());
         REQUIRE(world->rigid().all_finite());
         if (workers == 1) serial = state_hash(*world);
@@ -394,14 +406,8 @@ TEST_CASE("many small soft bodies stepped one per worker end bit-identical on 1,
     std::vector<StepFault> serial_faults;
     for (int workers : {1, 2, 3}) {
         INFO(workers << " workers");
-        static std::atomic<long> tasks{0};
-        ThreadPool host(workers);
-        TaskSystem counting = host.task_system();
-        counting.enqueue = [](TaskFn fn, int count, int min_range, void* ctx, void* pool) -> void* {
-            ++tasks;
-            return static_cast<ThreadPool*>(pool)->task_system().enqueue(fn, count, min_range, ctx, pool);
-        };
-        tasks = 0;
+        CountingHost host(workers);
+        const TaskSystem& counting = host.tasks;
         const std::unique_ptr<World> world = build_world(desc);
         if (workers > 1) world->set_threads(1, counting);
         REQUIRE(world->soft().particle_count() >= 2048);
@@ -424,7 +430,7 @@ TEST_CASE("many small soft bodies stepped one per worker end bit-identical on 1,
                 REQUIRE(world->faults().empty());
             }
         }
-        if (workers > 1) CHECK(tasks >= 60);  // the soft stages had helpers
+        if (workers > 1) CHECK(host.enqueued() >= 60);  // the soft stages had helpers
         REQUIRE(world->soft().all_finite());
         std::vector<std::array<std::uint32_t, 3>> contacts;
         for (const ParticleContact& c : world->soft().contacts()) contacts.push_back({c.body, c.particle, c.collider});

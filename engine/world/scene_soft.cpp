@@ -395,6 +395,9 @@ void parse_soft_bodies(const Node& array, SceneDesc& desc) {
         if (out.def.preconditioner == SoftPreconditioner::RestFactor &&
             (out.def.tets.empty() || out.def.method != SoftMethod::ImplicitEuler))
             b.get("solver").get("preconditioner").fail("rest-factor is for FEM bodies (tets) under the implicit method");
+        if (out.def.relaxation == SoftRelaxation::ByColour && out.def.method != SoftMethod::Verlet)
+            b.get("solver").get("relaxation").fail(std::string("by-colour is for Verlet bodies, got method ") +
+                                                   soft_method_name(out.def.method));
         if (!out.def.tets.empty()) {
             const std::string unfit = fem_method_problem(out.def.fem, out.def.method, out.def.tet_order);
             if (!unfit.empty()) (b.find("fem") ? b.get("fem") : b).fail(unfit);
