@@ -60,6 +60,7 @@ struct JointSet::Impl {
     std::vector<std::uint32_t> mark_group, joint_group, group_fill;  // scratch of grouping
     std::vector<std::uint32_t> body_zero;  // by body slot, all zero between uses: JointPointSolve::prepare's scratch
     ParallelRegion* region = nullptr;
+    std::size_t group_count() const { return group_start.empty() ? 0 : group_start.size() - 1; }
     Softness point_bias;                  // of the point blocks in that solve's biased passes
 
     // Sorted (min slot, max slot) keys of joints that filter contacts, rebuilt on the first query after
@@ -424,7 +425,7 @@ void bound_mass_ratio(JointRows& r, Real bound) {
 
 // The active joints grouped by the movable bodies they connect (union-find over body slots), for the soft
 // step's solve (Impl::group_start); each group's exact point solve prepared.
-void JointSet::group_joints(Impl& m, std::size_t body_slots, ParallelRegion* region) {
+void JointSet::group_joints(Impl& m, std::size_t body_slots) {
     std::vector<std::uint32_t>& parent = m.group_of_body;
     if (parent.size() < body_slots) parent.resize(body_slots);
     for (std::uint32_t b : m.moving) parent[b] = b;
@@ -467,7 +468,7 @@ void JointSet::group_joints(Impl& m, std::size_t body_slots, ParallelRegion* reg
     if (m.body_zero.size() < body_slots) m.body_zero.resize(body_slots, 0);
     // Each group's point solve, on the workers (they share no movable body, the scratch's only entries
     // a prepare touches).
-    for_ranges(groups > 1 ? region : nullptr, groups, 1, [&](std::size_t first, std::size_t last) {
+    for_ranges(groups > 1 ? m.region : nullptr, groups, 1, [&](std::size_t first, std::size_t last) {
         for (std::size_t g = first; g < last; ++g)
             m.group_points[g]->prepare(m.joints, m.rows, m.group_joints.data() + count[g], count[g + 1] - count[g], m.body_zero);
     });
@@ -573,7 +574,7 @@ void JointSet::prepare(RigidSystem& sys, const RowStep& step) {
     // (bound_mass_ratio), which the exact solve would take as the bodies' masses.
     if (m.correction == Impl::Correction::Soft) {
         m.region = &sys.region();
-        group_joints(m, st.x.size(), m.region);
+        group_joints(m, st.x.size());
     }
     if (m.correction == Impl::Correction::Projection) {
         m.pv.assign(st.x.size(), Vec3::Zero());
@@ -615,7 +616,7 @@ void JointSet::warm_start(const RigidSystem& sys, const BodyVelocities& vel) {
         for (std::size_t i = 0; i < count; ++i)
             if (m.slots.alive(joints[i])) warm_start_joint(m.joints[joints[i]], m.rows[joints[i]], st, p);  // skip joints destroyed since prepare()
     };
-    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    const std::size_t groups = m.group_count();
     if (groups < 2) {
         warm_start_joints(m.active.data(), m.active.size());
         return;
@@ -633,7 +634,7 @@ void JointSet::positions_advanced(const RigidSystem& sys, const BodyVelocities&,
     Impl& m = *impl_;
     if (m.correction != Impl::Correction::Soft) return;
     const RigidSystem::State& st = sys.state();
-    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    const std::size_t groups = m.group_count();
     for_ranges(groups > 1 ? m.region : nullptr, m.active.size(), 256, [&](std::size_t first, std::size_t last) {
         for (std::size_t k = first; k < last; ++k) {
             JointRows& r = m.rows[m.active[k]];
@@ -671,7 +672,7 @@ void JointSet::solve(const RigidSystem& sys, const BodyVelocities& vel, bool use
             if (current) points.solve(m.joints, m.rows, st, p, point_bias);
         }
     };
-    const std::size_t groups = m.group_start.empty() ? 0 : m.group_start.size() - 1;
+    const std::size_t groups = m.group_count();
     for_ranges(groups > 1 ? m.region : nullptr, groups, 1, solve_groups);
 }
 

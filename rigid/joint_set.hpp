@@ -19,7 +19,6 @@
 
 namespace sinew {
 
-class ParallelRegion;
 class RigidSystem;
 
 class JointSet final : public ConstraintRows {
@@ -96,7 +95,7 @@ private:
     void project_positions(RigidSystem& sys);  ///< finish()'s position projection (see joint_set.cpp)
     struct Impl;  // joints and their prepared rows, defined in joint_set.cpp
     /// prepare()'s groups of the soft step (see Impl::group_start) and their point solves.
-    static void group_joints(Impl& m, std::size_t body_slots, ParallelRegion* region);
+    static void group_joints(Impl& m, std::size_t body_slots);
     std::unique_ptr<Impl> impl_;
 };
 
